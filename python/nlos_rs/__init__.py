@@ -1,0 +1,148 @@
+"""nlos_rs: fast, correct transient light transport for non-line-of-sight imaging.
+
+Takes the scene dicts and XML files that mitransient 1.3.1 takes (``transient_nlos_path``,
+``nlos_capture_meter``, ``transient_hdr_film``, ``projector``) and returns NumPy arrays in
+mitransient's layout. Importing nlos_rs never imports Mitsuba.
+
+>>> import nlos_rs
+>>> steady, transient = nlos_rs.render(nlos_rs.scenes.z_nlos_1corner(), spp=64)
+"""
+
+from __future__ import annotations
+
+import os
+import time
+from typing import Any, Mapping, Optional, Tuple, Union
+
+import numpy as np
+
+from . import _core
+from ._core import Scene, SceneError, __version__
+from . import nlos, scenes, transform
+from .transform import Transform4f
+
+__all__ = [
+    "Scene",
+    "SceneError",
+    "Transform4f",
+    "load_dict",
+    "load_file",
+    "nlos",
+    "render",
+    "scenes",
+    "speed_of_light",
+    "transform",
+    "__version__",
+]
+
+#: Speed of light in m/s (``mitransient.utils.speed_of_light``); time = OPL / c.
+speed_of_light = 299792458.0
+
+
+def _normalize(v: Any) -> Any:
+    """Turn transforms, points and arrays (Mitsuba, NumPy or nlos_rs) into plain nested lists."""
+    if isinstance(v, Mapping):
+        return {k: _normalize(x) for k, x in v.items()}
+    if isinstance(v, (bool, int, float, str)):
+        return v
+    if isinstance(v, np.generic):
+        return v.item()
+    if isinstance(v, Transform4f):
+        return v.matrix.tolist()
+    matrix = getattr(v, "matrix", None)  # mi.ScalarTransform4f / ScalarAffineTransform4f
+    if matrix is not None:
+        v = matrix
+    try:
+        a = np.asarray(v, dtype=float)
+    except (TypeError, ValueError):
+        return v  # the core names the plugin and key in its error
+    if a.shape == (3, 4):  # affine 3x4
+        a = np.vstack([a, [0.0, 0.0, 0.0, 1.0]])
+    return a.tolist() if a.ndim in (1, 2) else v
+
+
+def load_dict(d: Mapping[str, Any]) -> Scene:
+    """Load a mitransient-style scene dict (``{'type': 'scene', ...}``).
+
+    Relative mesh paths resolve against the current directory. Unknown keys raise
+    :class:`SceneError` naming the plugin and key.
+    """
+    if not isinstance(d, Mapping):
+        raise TypeError(f"load_dict expects a dict, got {type(d).__name__}")
+    return _core.load_dict(_normalize(d), os.getcwd())
+
+
+def load_file(path: Union[str, os.PathLike], **params: Any) -> Scene:
+    """Load a Mitsuba XML scene; keyword arguments substitute ``$name`` parameters."""
+
+    def text(v: Any) -> str:
+        return ("true" if v else "false") if isinstance(v, bool) else str(v)
+
+    return _core.load_file(os.fspath(path), {k: text(v) for k, v in params.items()})
+
+
+_VARIANTS = {"mono": True, "rgb": False}
+
+
+def _as_scene(scene: Union[Scene, Mapping[str, Any], str, os.PathLike]) -> Scene:
+    if isinstance(scene, Scene):
+        return scene
+    if isinstance(scene, Mapping):
+        return load_dict(scene)
+    if isinstance(scene, (str, os.PathLike)):
+        return load_file(scene)
+    raise TypeError(f"render expects a Scene, a scene dict or an XML path, got {type(scene).__name__}")
+
+
+class _Progress:
+    """A tqdm bar (terminal or Jupyter) that appears only once a render has run for a second."""
+
+    def __init__(self, enabled: bool) -> None:
+        self.enabled, self.bar, self.start = enabled, None, time.monotonic()
+
+    def __call__(self, done: int, total: int) -> None:
+        if not self.enabled:
+            return
+        if self.bar is None:
+            if time.monotonic() - self.start < 1.0 or done >= total:
+                return
+            from tqdm.auto import tqdm
+
+            self.bar = tqdm(total=total, unit="path", unit_scale=True, desc="nlos_rs", leave=False)
+        self.bar.update(done - self.bar.n)
+
+    def close(self) -> None:
+        if self.bar is not None:
+            self.bar.close()
+
+
+def render(
+    scene: Union[Scene, Mapping[str, Any], str, os.PathLike],
+    spp: Optional[int] = None,
+    seed: int = 0,
+    threads: Optional[int] = None,
+    progress: bool = True,
+    variant: str = "mono",
+) -> Tuple[np.ndarray, np.ndarray]:
+    """Render an NLOS capture; returns ``(steady, transient)`` as float32 arrays.
+
+    Shapes follow mitransient: steady ``(H, W, C)``; transient ``(H, W, T, C)``, or for an
+    exhaustive capture ``(H, W, LH, LW, T, C)``; ``C`` is 1 for ``variant="mono"`` and 3 for
+    ``"rgb"``. ``spp`` defaults to the scene sampler's ``sample_count``; ``seed`` is added to its
+    ``seed``. Results are bit-identical for a seed whatever ``threads`` is. The GIL is released;
+    Ctrl-C stops the render (``KeyboardInterrupt``).
+    """
+    key = variant.split("_")[-1] if variant.startswith(("llvm_", "cuda_", "scalar_")) else variant
+    if key not in _VARIANTS:
+        raise ValueError(f"variant must be 'mono' or 'rgb', got {variant!r}")
+    if spp is not None and (not isinstance(spp, (int, np.integer)) or spp <= 0):
+        raise ValueError(f"spp must be a positive integer, got {spp!r}")
+    if threads is not None and (not isinstance(threads, (int, np.integer)) or threads <= 0):
+        raise ValueError(f"threads must be a positive integer, got {threads!r}")
+    if not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise ValueError(f"seed must be a non-negative integer, got {seed!r}")
+    bar = _Progress(progress)
+    try:
+        return _core.render(_as_scene(scene), spp, int(seed), threads, _VARIANTS[key], bar)
+    finally:
+        bar.close()

@@ -1,0 +1,112 @@
+//! The one module that talks to obvhs. It guards against the crate's known defects
+//! (shared/reference/obvhs-notes.md §6): directions are canonicalised so that no component is
+//! `-0.0` (CwBvh would miss such rays), and hits use our watertight primitive tests instead of
+//! obvhs' Möller–Trumbore ones (which leak through shared edges).
+
+use super::{Hit, Prim};
+use glam::Vec3A;
+use obvhs::{
+    Boundable, BvhBuildParams,
+    aabb::Aabb,
+    cwbvh::{CwBvh, builder::build_cwbvh},
+    ray::{Ray, RayHit},
+};
+
+impl Boundable for Prim {
+    fn aabb(&self) -> Aabb {
+        let (min, max) = self.bounds();
+        Aabb { min, max }
+    }
+}
+
+/// A compressed-wide BVH over the scene's primitives, kept in BVH slot order.
+pub struct Accel {
+    bvh: CwBvh,
+    /// Primitives in slot order.
+    prims: Vec<Prim>,
+    /// Slot → index of the primitive in scene order.
+    slot_to_prim: Vec<u32>,
+}
+
+/// Turn `-0.0` components into `+0.0` (obvhs-notes §6.1); nothing else changes.
+#[inline]
+pub fn canonical_dir(d: Vec3A) -> Vec3A {
+    d + Vec3A::ZERO
+}
+
+impl Accel {
+    /// Build over `prims` (scene order).
+    pub fn build(prims: &[Prim]) -> Self {
+        let bvh = build_cwbvh(
+            prims,
+            BvhBuildParams::medium_build(),
+            &mut Default::default(),
+        );
+        let slot_to_prim = bvh.primitive_indices.clone();
+        let prims = slot_to_prim.iter().map(|&i| prims[i as usize]).collect();
+        Self {
+            bvh,
+            prims,
+            slot_to_prim,
+        }
+    }
+
+    fn ray(o: Vec3A, d: Vec3A, tmin: f32, tmax: f32) -> Ray {
+        Ray::new(o, canonical_dir(d), tmin, tmax)
+    }
+
+    /// Closest hit of the ray `o + t d`, `t ∈ (tmin, tmax)`; `d` must be unit length.
+    pub fn intersect(&self, o: Vec3A, d: Vec3A, tmin: f32, tmax: f32) -> Option<Hit> {
+        if self.prims.is_empty() {
+            return None;
+        }
+        let ray = Self::ray(o, d, tmin, tmax);
+        let mut hit = RayHit::none();
+        let mut bary = [0.0f32; 2];
+        let found = self.bvh.ray_traverse(ray, &mut hit, |r, slot| {
+            match self.prims[slot].intersect(r.origin, r.direction, r.tmin, r.tmax) {
+                Some((t, b)) => {
+                    bary = b;
+                    t
+                }
+                None => f32::INFINITY,
+            }
+        });
+        // `bary` belongs to the last accepted candidate, which is the closest: candidates are
+        // only accepted when they shorten the ray.
+        found.then(|| Hit {
+            t: hit.t,
+            prim: self.slot_to_prim[hit.primitive_id as usize],
+            b: bary,
+        })
+    }
+
+    /// True if nothing lies on the open segment `o + t d`, `t ∈ (tmin, tmax)`.
+    pub fn unoccluded(&self, o: Vec3A, d: Vec3A, tmin: f32, tmax: f32) -> bool {
+        if self.prims.is_empty() {
+            return true;
+        }
+        let ray = Self::ray(o, d, tmin, tmax);
+        self.bvh.ray_traverse_miss(ray, |r, slot| {
+            self.prims[slot]
+                .intersect(r.origin, r.direction, r.tmin, r.tmax)
+                .map_or(f32::INFINITY, |h| h.0)
+        })
+    }
+}
+
+/// Brute-force closest hit over every primitive: the test oracle for [`Accel`].
+pub fn intersect_brute(prims: &[Prim], o: Vec3A, d: Vec3A, tmin: f32, tmax: f32) -> Option<Hit> {
+    let mut best: Option<Hit> = None;
+    for (i, p) in prims.iter().enumerate() {
+        let lim = best.map_or(tmax, |h| h.t);
+        if let Some((t, b)) = p.intersect(o, d, tmin, lim) {
+            best = Some(Hit {
+                t,
+                prim: i as u32,
+                b,
+            });
+        }
+    }
+    best
+}

@@ -1,0 +1,256 @@
+//! A Mitsuba-style property tree, the common form of a scene dict and a scene XML file.
+//!
+//! Plugins read their properties through [`Props`], which remembers what was read; [`Props::finish`]
+//! then rejects anything left over, as Mitsuba's "unreferenced property" check does.
+
+use crate::error::{NlosError, Result};
+use crate::math::{Transform, luminance};
+use glam::DMat4;
+use std::cell::Cell;
+
+/// A property value.
+#[derive(Clone, Debug)]
+pub enum Value {
+    /// `boolean`.
+    Bool(bool),
+    /// `integer`.
+    Int(i64),
+    /// `float`.
+    Float(f64),
+    /// `string`.
+    Str(String),
+    /// `point` / `vector` (three numbers).
+    Vec3([f64; 3]),
+    /// `rgb` colour.
+    Rgb([f64; 3]),
+    /// 4×4 matrix (`transform`).
+    Matrix(DMat4),
+    /// A nested plugin.
+    Object(Props),
+    /// `{'type': 'ref', 'id': ...}` / `<ref id=.../>`.
+    Ref(String),
+}
+
+impl Value {
+    fn kind(&self) -> &'static str {
+        match self {
+            Value::Bool(_) => "boolean",
+            Value::Int(_) => "integer",
+            Value::Float(_) => "float",
+            Value::Str(_) => "string",
+            Value::Vec3(_) => "point",
+            Value::Rgb(_) => "rgb",
+            Value::Matrix(_) => "transform",
+            Value::Object(_) => "object",
+            Value::Ref(_) => "reference",
+        }
+    }
+}
+
+/// A plugin instance: its type, optional id, and named properties in declaration order.
+#[derive(Clone, Debug)]
+pub struct Props {
+    /// Plugin type, e.g. `rectangle`.
+    pub plugin: String,
+    /// Object id (dict key or XML `id`), if any.
+    pub id: Option<String>,
+    entries: Vec<(String, Value)>,
+    used: Vec<Cell<bool>>,
+}
+
+/// A colour or a plain number as Mitsuba accepts for `reflectance`, `irradiance`, ...
+#[derive(Clone, Copy, Debug)]
+pub enum Colour {
+    /// Uniform value.
+    Uniform(f64),
+    /// RGB triple.
+    Rgb([f64; 3]),
+}
+
+impl Colour {
+    /// As a render spectrum: RGB as is, or (mono) the luminance in all lanes.
+    pub fn spectrum(self, mono: bool) -> crate::math::Spectrum {
+        let rgb = match self {
+            Colour::Uniform(v) => [v; 3],
+            Colour::Rgb(c) => c,
+        };
+        if mono {
+            let l = match self {
+                Colour::Uniform(v) => v,
+                Colour::Rgb(c) => luminance(c),
+            };
+            glam::Vec3A::splat(l as f32)
+        } else {
+            glam::Vec3A::new(rgb[0] as f32, rgb[1] as f32, rgb[2] as f32)
+        }
+    }
+}
+
+impl Props {
+    /// Empty property set for a plugin.
+    pub fn new(plugin: impl Into<String>, id: Option<String>) -> Self {
+        Self {
+            plugin: plugin.into(),
+            id,
+            entries: Vec::new(),
+            used: Vec::new(),
+        }
+    }
+
+    /// Add a property; a repeated name is an error, as in Mitsuba.
+    pub fn insert(&mut self, key: impl Into<String>, value: Value) -> Result<()> {
+        let key = key.into();
+        if self.entries.iter().any(|(k, _)| *k == key) {
+            return Err(NlosError::prop(&self.plugin, &key, "given twice"));
+        }
+        self.entries.push((key, value));
+        self.used.push(Cell::new(false));
+        Ok(())
+    }
+
+    fn err(&self, key: &str, msg: impl Into<String>) -> NlosError {
+        NlosError::prop(&self.plugin, key, msg)
+    }
+
+    fn take(&self, key: &str) -> Option<&Value> {
+        let i = self.entries.iter().position(|(k, _)| k == key)?;
+        self.used[i].set(true);
+        Some(&self.entries[i].1)
+    }
+
+    fn wrong(&self, key: &str, want: &str, got: &Value) -> NlosError {
+        self.err(key, format!("expected {want}, got {}", got.kind()))
+    }
+
+    /// Is the key present (without consuming it)?
+    pub fn has(&self, key: &str) -> bool {
+        self.entries.iter().any(|(k, _)| k == key)
+    }
+
+    /// Integer property.
+    pub fn int(&self, key: &str, default: i64) -> Result<i64> {
+        match self.take(key) {
+            None => Ok(default),
+            Some(Value::Int(v)) => Ok(*v),
+            Some(v) => Err(self.wrong(key, "an integer", v)),
+        }
+    }
+
+    /// Non-negative integer property that must lie in `[lo, hi]`.
+    pub fn int_in(&self, key: &str, default: i64, lo: i64, hi: i64) -> Result<i64> {
+        let v = self.int(key, default)?;
+        if v < lo || v > hi {
+            return Err(self.err(key, format!("must be in [{lo}, {hi}], got {v}")));
+        }
+        Ok(v)
+    }
+
+    /// Float property (an integer is accepted, as in Mitsuba).
+    pub fn float(&self, key: &str, default: f64) -> Result<f64> {
+        match self.take(key) {
+            None => Ok(default),
+            Some(Value::Float(v)) if v.is_finite() => Ok(*v),
+            Some(Value::Float(v)) => Err(self.err(key, format!("must be finite, got {v}"))),
+            Some(Value::Int(v)) => Ok(*v as f64),
+            Some(v) => Err(self.wrong(key, "a float", v)),
+        }
+    }
+
+    /// Boolean property.
+    pub fn bool(&self, key: &str, default: bool) -> Result<bool> {
+        match self.take(key) {
+            None => Ok(default),
+            Some(Value::Bool(v)) => Ok(*v),
+            Some(v) => Err(self.wrong(key, "a boolean", v)),
+        }
+    }
+
+    /// String property.
+    pub fn string(&self, key: &str, default: &str) -> Result<String> {
+        match self.take(key) {
+            None => Ok(default.to_string()),
+            Some(Value::Str(v)) => Ok(v.clone()),
+            Some(v) => Err(self.wrong(key, "a string", v)),
+        }
+    }
+
+    /// Point / vector property.
+    pub fn vec3(&self, key: &str, default: [f64; 3]) -> Result<[f64; 3]> {
+        match self.take(key) {
+            None => Ok(default),
+            Some(Value::Vec3(v)) if v.iter().all(|x| x.is_finite()) => Ok(*v),
+            Some(Value::Vec3(_)) => Err(self.err(key, "must be finite")),
+            Some(v) => Err(self.wrong(key, "a point (three numbers)", v)),
+        }
+    }
+
+    /// `to_world`-like transform property (identity if absent).
+    pub fn transform(&self, key: &str) -> Result<Transform> {
+        Ok(Transform::from_dmat4(self.matrix(key)?).ok_or_else(|| {
+            self.err(
+                key,
+                "must be an invertible affine 4x4 matrix (last row 0 0 0 1)",
+            )
+        })?)
+    }
+
+    /// Raw 4×4 matrix property (identity if absent).
+    pub fn matrix(&self, key: &str) -> Result<DMat4> {
+        match self.take(key) {
+            None => Ok(DMat4::IDENTITY),
+            Some(Value::Matrix(m)) => Ok(*m),
+            Some(v) => Err(self.wrong(key, "a 4x4 transform", v)),
+        }
+    }
+
+    /// Colour property: a number, an `rgb` value, or a `spectrum`/`rgb` object holding one.
+    pub fn colour(&self, key: &str, default: Colour) -> Result<Colour> {
+        let c = match self.take(key) {
+            None => return Ok(default),
+            Some(Value::Float(v)) => Colour::Uniform(*v),
+            Some(Value::Int(v)) => Colour::Uniform(*v as f64),
+            Some(Value::Rgb(c)) => Colour::Rgb(*c),
+            Some(v) => return Err(self.wrong(key, "a float or rgb colour", v)),
+        };
+        let ok = match c {
+            Colour::Uniform(v) => v.is_finite() && v >= 0.0,
+            Colour::Rgb(c) => c.iter().all(|v| v.is_finite() && *v >= 0.0),
+        };
+        if !ok {
+            return Err(self.err(key, "must be finite and non-negative"));
+        }
+        Ok(c)
+    }
+
+    /// Consume every nested object (and reference), in declaration order, with its key.
+    pub fn objects(&self) -> Vec<(String, Value)> {
+        let mut out = Vec::new();
+        for (i, (k, v)) in self.entries.iter().enumerate() {
+            if matches!(v, Value::Object(_) | Value::Ref(_)) {
+                self.used[i].set(true);
+                out.push((k.clone(), v.clone()));
+            }
+        }
+        out
+    }
+
+    /// Reject every property that no reader consumed.
+    pub fn finish(&self) -> Result<()> {
+        let left: Vec<&str> = self
+            .entries
+            .iter()
+            .zip(&self.used)
+            .filter(|(_, u)| !u.get())
+            .map(|((k, _), _)| k.as_str())
+            .collect();
+        match left.first() {
+            None => Ok(()),
+            Some(k) => Err(self.err(
+                k,
+                format!(
+                    "unreferenced property (not a parameter of this plugin); all unused: {left:?}"
+                ),
+            )),
+        }
+    }
+}

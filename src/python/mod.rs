@@ -1,0 +1,429 @@
+//! The PyO3 binding: converts Python values to the core's types and back, releases the GIL while
+//! rendering, forwards progress and Ctrl-C, and maps [`crate::NlosError`]. No physics here.
+
+use crate::error::NlosError;
+use crate::props::{Props, Value};
+use crate::render::{Monitor, RenderOptions, render as core_render, total_samples};
+use glam::{DMat4, Vec2, Vec3A};
+use numpy::{PyArray1, PyArrayMethods};
+use pyo3::create_exception;
+use pyo3::exceptions::{PyFileNotFoundError, PyKeyboardInterrupt, PyValueError};
+use pyo3::prelude::*;
+use pyo3::types::{PyBool, PyDict, PyFloat, PyInt, PyList, PyString, PyTuple};
+use std::collections::HashMap;
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::sync::atomic::Ordering;
+use std::time::Duration;
+
+create_exception!(
+    nlos_rs,
+    SceneError,
+    PyValueError,
+    "A scene description (dict, XML or mesh) is invalid."
+);
+
+impl From<NlosError> for PyErr {
+    fn from(e: NlosError) -> PyErr {
+        match e {
+            NlosError::NotFound(_) => PyFileNotFoundError::new_err(e.to_string()),
+            NlosError::Interrupted => PyKeyboardInterrupt::new_err(e.to_string()),
+            _ => SceneError::new_err(e.to_string()),
+        }
+    }
+}
+
+fn bad(plugin: &str, key: &str, msg: impl Into<String>) -> PyErr {
+    NlosError::prop(plugin, key, msg).into()
+}
+
+fn numbers(v: &Bound<'_, PyAny>) -> Option<Vec<f64>> {
+    let items: Vec<Bound<'_, PyAny>> = if let Ok(l) = v.cast::<PyList>() {
+        l.iter().collect()
+    } else if let Ok(t) = v.cast::<PyTuple>() {
+        t.iter().collect()
+    } else {
+        return None;
+    };
+    items
+        .iter()
+        .map(|x| {
+            if x.is_instance_of::<PyBool>() {
+                None
+            } else {
+                x.extract::<f64>().ok()
+            }
+        })
+        .collect()
+}
+
+/// Convert one dict value (already normalised by the Python layer: transforms and arrays are
+/// nested lists).
+fn value(plugin: &str, key: &str, v: &Bound<'_, PyAny>) -> PyResult<Value> {
+    if v.is_instance_of::<PyBool>() {
+        return Ok(Value::Bool(v.extract()?));
+    }
+    if v.is_instance_of::<PyInt>() {
+        return Ok(Value::Int(
+            v.extract()
+                .map_err(|_| bad(plugin, key, "integer out of range"))?,
+        ));
+    }
+    if v.is_instance_of::<PyFloat>() {
+        return Ok(Value::Float(v.extract()?));
+    }
+    if v.is_instance_of::<PyString>() {
+        return Ok(Value::Str(v.extract()?));
+    }
+    if let Ok(d) = v.cast::<PyDict>() {
+        let ty: String = match d.get_item("type")? {
+            Some(t) => t
+                .extract()
+                .map_err(|_| bad(plugin, key, "'type' must be a string"))?,
+            None => return Err(bad(plugin, key, "a nested dict needs a 'type'")),
+        };
+        return match ty.as_str() {
+            "rgb" | "spectrum" => {
+                let only = |k: &str| k == "type" || k == "value";
+                for k in d.keys() {
+                    let k: String = k.extract()?;
+                    if !only(&k) {
+                        return Err(bad(&ty, &k, "unreferenced property"));
+                    }
+                }
+                let val = d
+                    .get_item("value")?
+                    .ok_or_else(|| bad(&ty, "value", "missing"))?;
+                if let Ok(x) = val.extract::<f64>() {
+                    return Ok(if ty == "rgb" {
+                        Value::Rgb([x; 3])
+                    } else {
+                        Value::Float(x)
+                    });
+                }
+                match (ty.as_str(), numbers(&val).as_deref()) {
+                    ("rgb", Some([r, g, b])) => Ok(Value::Rgb([*r, *g, *b])),
+                    _ => Err(bad(
+                        &ty,
+                        "value",
+                        "must be a number (or, for rgb, three numbers)",
+                    )),
+                }
+            }
+            "ref" => {
+                let id = d
+                    .get_item("id")?
+                    .ok_or_else(|| bad("ref", "id", "missing"))?;
+                Ok(Value::Ref(
+                    id.extract()
+                        .map_err(|_| bad("ref", "id", "must be a string"))?,
+                ))
+            }
+            _ => Ok(Value::Object(object(&ty, None, d)?)),
+        };
+    }
+    if let Some(n) = numbers(v) {
+        if n.len() == 3 {
+            return Ok(Value::Vec3([n[0], n[1], n[2]]));
+        }
+    }
+    // A 4×4 matrix as nested lists.
+    let rows: Option<Vec<Vec<f64>>> = v
+        .cast::<PyList>()
+        .ok()
+        .and_then(|l| l.iter().map(|r| numbers(&r)).collect());
+    if let Some(rows) = rows {
+        if rows.len() == 4 && rows.iter().all(|r| r.len() == 4) {
+            let flat: Vec<f64> = rows.concat();
+            return Ok(Value::Matrix(DMat4::from_cols_slice(&flat).transpose()));
+        }
+    }
+    Err(bad(
+        plugin,
+        key,
+        format!(
+            "unsupported value {}",
+            v.repr().map(|r| r.to_string()).unwrap_or_default()
+        ),
+    ))
+}
+
+fn object(plugin: &str, id: Option<String>, d: &Bound<'_, PyDict>) -> PyResult<Props> {
+    let mut props = Props::new(plugin, id);
+    let mut own_id = None;
+    for (k, v) in d.iter() {
+        let key: String = k
+            .extract()
+            .map_err(|_| bad(plugin, "?", "dict keys must be strings"))?;
+        match key.as_str() {
+            "type" => continue,
+            "id" => {
+                own_id = Some(
+                    v.extract::<String>()
+                        .map_err(|_| bad(plugin, "id", "must be a string"))?,
+                );
+                continue;
+            }
+            _ => {}
+        }
+        let mut val = value(plugin, &key, &v)?;
+        // Top-level objects of a scene take their dict key as id (as mi.load_dict does).
+        if plugin == "scene" {
+            if let Value::Object(o) = &mut val {
+                o.id.get_or_insert_with(|| key.clone());
+            }
+        }
+        props.insert(key, val)?;
+    }
+    if own_id.is_some() {
+        props.id = own_id;
+    }
+    Ok(props)
+}
+
+/// A loaded scene (immutable but for the laser's aim).
+#[pyclass(module = "nlos_rs._core", name = "Scene", frozen)]
+pub struct PyScene {
+    inner: std::sync::RwLock<Arc<crate::Scene>>,
+}
+
+impl PyScene {
+    fn get(&self) -> Arc<crate::Scene> {
+        self.inner
+            .read()
+            .map(|s| s.clone())
+            .unwrap_or_else(|e| e.into_inner().clone())
+    }
+    fn wrap(s: crate::Scene) -> Self {
+        Self {
+            inner: std::sync::RwLock::new(Arc::new(s)),
+        }
+    }
+}
+
+#[pymethods]
+impl PyScene {
+    /// (width, height) of the scan grid.
+    #[getter]
+    fn film_size(&self) -> (usize, usize) {
+        let f = &self.get().meter.film;
+        (f.width, f.height)
+    }
+    /// Samples per scan point set in the scene's sampler.
+    #[getter]
+    fn spp(&self) -> u64 {
+        self.get().meter.spp
+    }
+    /// Number of time bins, bin width and start (OPL, scene units).
+    #[getter]
+    fn temporal(&self) -> (usize, f64, f64) {
+        let f = &self.get().meter.film;
+        (f.temporal_bins, f.bin_width_opl, f.start_opl)
+    }
+    /// Capture type: 'single', 'confocal' or 'exhaustive'.
+    #[getter]
+    fn capture_type(&self) -> &'static str {
+        match self.get().integrator.capture_type {
+            crate::integrator::CaptureType::Single => "single",
+            crate::integrator::CaptureType::Confocal => "confocal",
+            crate::integrator::CaptureType::Exhaustive => "exhaustive",
+        }
+    }
+    /// Laser grid (LW, LH) of an exhaustive film, else None.
+    #[getter]
+    fn laser_scan(&self) -> Option<(usize, usize)> {
+        self.get().meter.film.laser_scan
+    }
+    /// Whether the optical path includes the sensor and laser legs.
+    #[getter]
+    fn account_first_and_last_bounces(&self) -> bool {
+        self.get().integrator.account_first_and_last_bounces
+    }
+    /// Sensor origin.
+    #[getter]
+    fn sensor_origin(&self) -> [f32; 3] {
+        self.get().meter.origin.to_array()
+    }
+    /// Laser origin.
+    #[getter]
+    fn laser_origin(&self) -> [f32; 3] {
+        self.get().laser.origin.to_array()
+    }
+    /// The laser's to_world as a nested list (row-major).
+    #[getter]
+    fn laser_to_world(&self) -> Vec<Vec<f64>> {
+        let m = self.get().laser.to_world.transpose().to_cols_array_2d();
+        m.iter().map(|r| r.to_vec()).collect()
+    }
+    /// Ids of the shapes, in order; the relay wall's index.
+    #[getter]
+    fn shape_ids(&self) -> Vec<String> {
+        self.get().shapes.iter().map(|s| s.id.clone()).collect()
+    }
+    #[getter]
+    fn relay_wall_index(&self) -> usize {
+        self.get().relay_wall
+    }
+    /// Relay-wall point and normal at uv ∈ [0, 1]² (`rectangle.sample_position`).
+    fn relay_wall_point(&self, u: f32, v: f32) -> ([f32; 3], [f32; 3]) {
+        let (p, n) = self.get().relay_wall_point(Vec2::new(u, v));
+        (p.to_array(), n.to_array())
+    }
+    /// Aim the laser at a world point from its current origin.
+    fn focus_laser_at(&self, x: f32, y: f32, z: f32) -> PyResult<()> {
+        let mut guard = self
+            .inner
+            .write()
+            .map_err(|_| SceneError::new_err("scene lock poisoned"))?;
+        Arc::make_mut(&mut guard).focus_laser_at(Vec3A::new(x, y, z))?;
+        Ok(())
+    }
+    fn __repr__(&self) -> String {
+        let s = self.get();
+        let f = &s.meter.film;
+        format!(
+            "Scene({} shapes, {} primitives, {}x{} scan, {} bins x {} from {}, {} spp)",
+            s.shapes.len(),
+            s.prims.len(),
+            f.width,
+            f.height,
+            f.temporal_bins,
+            f.bin_width_opl,
+            f.start_opl,
+            s.meter.spp
+        )
+    }
+}
+
+/// Build a scene from a (normalised) Mitsuba scene dict.
+#[pyfunction]
+fn load_dict(
+    py: Python<'_>,
+    d: &Bound<'_, PyDict>,
+    base_dir: Option<PathBuf>,
+) -> PyResult<PyScene> {
+    let ty: Option<String> = d.get_item("type")?.map(|t| t.extract()).transpose()?;
+    if ty.as_deref() != Some("scene") {
+        return Err(SceneError::new_err("the scene dict needs 'type': 'scene'"));
+    }
+    let props = object("scene", None, d)?;
+    let dir = base_dir.unwrap_or_else(|| PathBuf::from("."));
+    Ok(PyScene::wrap(
+        py.detach(move || crate::Scene::from_props(&props, &dir))?,
+    ))
+}
+
+/// Load a Mitsuba XML scene file; `params` substitute `$name`s.
+#[pyfunction]
+fn load_file(py: Python<'_>, path: PathBuf, params: HashMap<String, String>) -> PyResult<PyScene> {
+    let scene = py.detach(|| {
+        let props = crate::xml::load(&path, &params)?;
+        let dir = path.parent().map(PathBuf::from).unwrap_or_default();
+        crate::Scene::from_props(&props, &dir)
+    })?;
+    Ok(PyScene::wrap(scene))
+}
+
+type Arrays<'py> = (Bound<'py, PyAny>, Bound<'py, PyAny>);
+
+/// Render with the GIL released. `progress(done, total)` is called about ten times a second;
+/// Ctrl-C cancels within a poll interval.
+#[pyfunction]
+#[pyo3(signature = (scene, spp=None, seed=0, threads=None, mono=true, progress=None))]
+fn render<'py>(
+    py: Python<'py>,
+    scene: &PyScene,
+    spp: Option<u64>,
+    seed: u64,
+    threads: Option<usize>,
+    mono: bool,
+    progress: Option<Bound<'py, PyAny>>,
+) -> PyResult<Arrays<'py>> {
+    let scene = scene.get();
+    let opts = RenderOptions {
+        spp,
+        seed,
+        threads,
+        mono,
+    };
+    let total = total_samples(&scene, &opts);
+    let monitor = Monitor::default();
+    let out = std::thread::scope(|s| -> PyResult<_> {
+        let job = s.spawn(|| core_render(&scene, &opts, &monitor));
+        let stop = |e: PyErr| {
+            monitor.cancel.store(true, Ordering::Relaxed);
+            e
+        };
+        loop {
+            let finished = py.detach(|| {
+                for _ in 0..10 {
+                    if job.is_finished() {
+                        return true;
+                    }
+                    std::thread::sleep(Duration::from_millis(10));
+                }
+                job.is_finished()
+            });
+            if let Some(cb) = &progress {
+                cb.call1((monitor.done.load(Ordering::Relaxed), total))
+                    .map_err(stop)?;
+            }
+            if finished {
+                break;
+            }
+            py.check_signals().map_err(stop)?;
+        }
+        job.join()
+            .map_err(|_| SceneError::new_err("render thread panicked"))?
+            .map_err(PyErr::from)
+    })?;
+    let steady = PyArray1::from_vec(py, out.steady).reshape(out.steady_shape)?;
+    let transient = PyArray1::from_vec(py, out.transient).reshape(out.transient_shape)?;
+    Ok((steady.into_any(), transient.into_any()))
+}
+
+/// Mitsuba-convention transforms as row-major nested lists.
+#[pyfunction]
+fn transform_look_at(origin: [f64; 3], target: [f64; 3], up: [f64; 3]) -> PyResult<Vec<Vec<f64>>> {
+    let m = crate::math::look_at(origin, target, up).ok_or_else(|| {
+        SceneError::new_err("look_at: degenerate (target = origin, or up parallel to the view)")
+    })?;
+    Ok(rows(m))
+}
+#[pyfunction]
+fn transform_translate(v: [f64; 3]) -> Vec<Vec<f64>> {
+    rows(crate::math::translate(v))
+}
+#[pyfunction]
+fn transform_scale(v: [f64; 3]) -> Vec<Vec<f64>> {
+    rows(crate::math::scale(v))
+}
+#[pyfunction]
+fn transform_rotate(axis: [f64; 3], angle: f64) -> Vec<Vec<f64>> {
+    rows(crate::math::rotate(axis, angle))
+}
+
+fn rows(m: DMat4) -> Vec<Vec<f64>> {
+    m.transpose()
+        .to_cols_array_2d()
+        .iter()
+        .map(|r| r.to_vec())
+        .collect()
+}
+
+/// The compiled core of nlos_rs.
+#[pymodule]
+#[pyo3(name = "_core")]
+fn core_module(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    m.add("SceneError", m.py().get_type::<SceneError>())?;
+    m.add_class::<PyScene>()?;
+    m.add_function(wrap_pyfunction!(load_dict, m)?)?;
+    m.add_function(wrap_pyfunction!(load_file, m)?)?;
+    m.add_function(wrap_pyfunction!(render, m)?)?;
+    m.add_function(wrap_pyfunction!(transform_look_at, m)?)?;
+    m.add_function(wrap_pyfunction!(transform_translate, m)?)?;
+    m.add_function(wrap_pyfunction!(transform_scale, m)?)?;
+    m.add_function(wrap_pyfunction!(transform_rotate, m)?)?;
+    Ok(())
+}

@@ -1,0 +1,145 @@
+//! Random numbers and warps. Every warp comes with its density so that it can be χ²-tested
+//! (tests/sampling.rs). Streams are keyed by (seed, pixel, block) so a render is bit-identical
+//! whatever the number of threads.
+
+use glam::{Vec2, Vec3A};
+use rand_core::Rng;
+use rand_pcg::Pcg32;
+use std::f32::consts::{FRAC_1_PI, PI};
+
+/// Independent uniform sampler (PCG32, O'Neill 2014).
+pub struct Sampler(Pcg32);
+
+/// SplitMix64 finaliser: decorrelates the structured keys that seed the streams.
+fn mix64(mut z: u64) -> u64 {
+    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+    z ^ (z >> 31)
+}
+
+impl Sampler {
+    /// The stream for `(seed, key_a, key_b)`, e.g. (seed, pixel, sample block).
+    pub fn new(seed: u64, key_a: u64, key_b: u64) -> Self {
+        let state = mix64(seed ^ mix64(key_a.wrapping_add(0x9e37_79b9_7f4a_7c15)));
+        let stream = mix64(key_b ^ mix64(seed.wrapping_add(1)));
+        Self(Pcg32::new(state, stream))
+    }
+    /// Uniform in [0, 1).
+    #[inline]
+    pub fn next_1d(&mut self) -> f32 {
+        (self.0.next_u32() >> 8) as f32 * (1.0 / 16_777_216.0)
+    }
+    /// Two uniforms in [0, 1)².
+    #[inline]
+    pub fn next_2d(&mut self) -> Vec2 {
+        Vec2::new(self.next_1d(), self.next_1d())
+    }
+}
+
+/// Cosine-weighted hemisphere around +z (Malley's method over Shirley–Chiu's concentric disk).
+pub fn square_to_cosine_hemisphere(u: Vec2) -> Vec3A {
+    let p = square_to_uniform_disk_concentric(u);
+    let z = (1.0 - p.length_squared()).max(0.0).sqrt();
+    Vec3A::new(p.x, p.y, z)
+}
+
+/// Density of [`square_to_cosine_hemisphere`] (solid angle).
+pub fn square_to_cosine_hemisphere_pdf(v: Vec3A) -> f32 {
+    if v.z > 0.0 { v.z * FRAC_1_PI } else { 0.0 }
+}
+
+/// Shirley–Chiu concentric map of the square onto the unit disk.
+pub fn square_to_uniform_disk_concentric(u: Vec2) -> Vec2 {
+    let (x, y) = (2.0 * u.x - 1.0, 2.0 * u.y - 1.0);
+    if x == 0.0 && y == 0.0 {
+        return Vec2::ZERO;
+    }
+    let (r, phi) = if x.abs() > y.abs() {
+        (x, PI / 4.0 * (y / x))
+    } else {
+        (y, PI / 2.0 - PI / 4.0 * (x / y))
+    };
+    Vec2::new(r * phi.cos(), r * phi.sin())
+}
+
+/// Density of [`square_to_uniform_disk_concentric`] (area).
+pub fn square_to_uniform_disk_pdf(p: Vec2) -> f32 {
+    if p.length_squared() <= 1.0 {
+        FRAC_1_PI
+    } else {
+        0.0
+    }
+}
+
+/// Uniform direction on the unit sphere.
+pub fn square_to_uniform_sphere(u: Vec2) -> Vec3A {
+    let z = 1.0 - 2.0 * u.y;
+    let r = (1.0 - z * z).max(0.0).sqrt();
+    let (s, c) = (2.0 * PI * u.x).sin_cos();
+    Vec3A::new(r * c, r * s, z)
+}
+
+/// Density of [`square_to_uniform_sphere`] (solid angle).
+pub const UNIFORM_SPHERE_PDF: f32 = 1.0 / (4.0 * PI);
+
+/// Uniform barycentrics (b1, b2) on a triangle (Heitz 2019's area-preserving low-distortion map).
+pub fn square_to_uniform_triangle(u: Vec2) -> Vec2 {
+    let (b0, b1) = if u.x < u.y {
+        let b0 = u.x / 2.0;
+        (b0, u.y - b0)
+    } else {
+        let b1 = u.y / 2.0;
+        (u.x - b1, b1)
+    };
+    Vec2::new(b1, 1.0 - b0 - b1)
+}
+
+/// A discrete distribution over non-negative weights, sampled by inverting its CDF.
+#[derive(Clone, Debug, Default)]
+pub struct Discrete {
+    cdf: Vec<f32>,
+    total: f64,
+}
+
+impl Discrete {
+    /// From weights; `None` if they are empty, negative, non-finite or sum to zero.
+    pub fn new(weights: &[f64]) -> Option<Self> {
+        let mut acc = 0.0f64;
+        let mut cdf = Vec::with_capacity(weights.len());
+        for &w in weights {
+            if !(w >= 0.0) || !w.is_finite() {
+                return None;
+            }
+            acc += w;
+            cdf.push(acc);
+        }
+        (acc > 0.0).then(|| Self {
+            cdf: cdf.iter().map(|c| (c / acc) as f32).collect(),
+            total: acc,
+        })
+    }
+    /// Sum of the weights.
+    pub fn total(&self) -> f64 {
+        self.total
+    }
+    /// Probability of index `i`.
+    pub fn pmf(&self, i: usize) -> f32 {
+        self.cdf[i] - if i == 0 { 0.0 } else { self.cdf[i - 1] }
+    }
+    /// Sample an index with `u ∈ [0, 1)` and return it with `u` rescaled to [0, 1) for reuse
+    /// (Mitsuba's `sample_reuse`).
+    pub fn sample_reuse(&self, u: f32) -> (usize, f32) {
+        let i = self
+            .cdf
+            .partition_point(|&c| c <= u)
+            .min(self.cdf.len() - 1);
+        let lo = if i == 0 { 0.0 } else { self.cdf[i - 1] };
+        let p = self.cdf[i] - lo;
+        let r = if p > 0.0 {
+            ((u - lo) / p).clamp(0.0, 1.0 - f32::EPSILON / 2.0)
+        } else {
+            0.0
+        };
+        (i, r)
+    }
+}
