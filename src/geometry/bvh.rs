@@ -1,7 +1,8 @@
 //! The one module that talks to obvhs. It guards against the crate's known defects
 //! (shared/reference/obvhs-notes.md §6): directions are canonicalised so that no component is
-//! `-0.0` (CwBvh would miss such rays), and hits use our watertight primitive tests instead of
-//! obvhs' Möller–Trumbore ones (which leak through shared edges).
+//! `-0.0` (CwBvh would miss such rays), bounds are padded so rays lying in a box face are not lost,
+//! and hits use our watertight primitive tests instead of obvhs' Möller–Trumbore ones (which leak
+//! through shared edges).
 
 use super::{Hit, Prim};
 use glam::Vec3A;
@@ -13,9 +14,15 @@ use obvhs::{
 };
 
 impl Boundable for Prim {
+    /// Bounds padded by a relative epsilon: a ray lying exactly in a box face (axis-aligned walls,
+    /// scan rays in symmetry planes) must not fail obvhs' slab test on a tie.
     fn aabb(&self) -> Aabb {
         let (min, max) = self.bounds();
-        Aabb { min, max }
+        let pad = (min.abs().max(max.abs()) + Vec3A::ONE) * 1e-6;
+        Aabb {
+            min: min - pad,
+            max: max + pad,
+        }
     }
 }
 

@@ -1,0 +1,182 @@
+//! The BVH wrapper against the obvhs pitfalls (shared/reference/obvhs-notes.md §6): watertight
+//! hits on closed meshes, rays with -0.0 direction components, and agreement with brute force.
+
+use glam::Vec3A;
+use nlos_rs::geometry::{
+    Prim,
+    bvh::{Accel, intersect_brute},
+};
+use nlos_rs::sampling::{Sampler, square_to_uniform_sphere};
+
+/// A closed latitude–longitude sphere mesh with shared vertices, radially perturbed.
+fn closed_sphere(n_lat: usize, n_lon: usize, jitter: f32, rng: &mut Sampler) -> Vec<Prim> {
+    let mut v = vec![Vec3A::Z];
+    for i in 1..n_lat {
+        let th = std::f32::consts::PI * i as f32 / n_lat as f32;
+        for j in 0..n_lon {
+            let ph = 2.0 * std::f32::consts::PI * j as f32 / n_lon as f32;
+            v.push(Vec3A::new(
+                th.sin() * ph.cos(),
+                th.sin() * ph.sin(),
+                th.cos(),
+            ));
+        }
+    }
+    v.push(-Vec3A::Z);
+    for p in &mut v {
+        *p *= 1.0 + jitter * (rng.next_1d() - 0.5);
+    }
+    let ring = |i: usize, j: usize| 1 + (i - 1) * n_lon + j % n_lon;
+    let last = v.len() - 1;
+    let mut tris = Vec::new();
+    for j in 0..n_lon {
+        tris.push([0, ring(1, j), ring(1, j + 1)]);
+        tris.push([last, ring(n_lat - 1, j + 1), ring(n_lat - 1, j)]);
+        for i in 1..n_lat - 1 {
+            tris.push([ring(i, j), ring(i + 1, j), ring(i + 1, j + 1)]);
+            tris.push([ring(i, j), ring(i + 1, j + 1), ring(i, j + 1)]);
+        }
+    }
+    tris.into_iter()
+        .map(|t| Prim::Triangle(t.map(|k| v[k])))
+        .collect()
+}
+
+#[test]
+fn watertight_from_inside() {
+    // pbrt-v4's TEST(Triangle, Watertight): every ray from inside a closed mesh must hit it, also
+    // rays lying in mesh-edge planes (x = 0, y = 0) and rays aimed exactly at vertices.
+    let mut rng = Sampler::new(1, 2, 3);
+    for jitter in [0.0, 0.2] {
+        let prims = closed_sphere(16, 32, jitter, &mut rng);
+        let accel = Accel::build(&prims);
+        let mut dirs: Vec<Vec3A> = (0..20_000)
+            .map(|_| square_to_uniform_sphere(rng.next_2d()))
+            .collect();
+        dirs.extend((0..2000).map(|k| {
+            let a = 2.0 * std::f32::consts::PI * k as f32 / 2000.0;
+            Vec3A::new(0.0, a.cos(), a.sin())
+        }));
+        dirs.extend((0..2000).map(|k| {
+            let a = 2.0 * std::f32::consts::PI * k as f32 / 2000.0;
+            Vec3A::new(a.cos(), 0.0, a.sin())
+        }));
+        for p in &prims {
+            if let Prim::Triangle(t) = p {
+                dirs.push(t[0].normalize());
+            }
+        }
+        let leaks = dirs
+            .iter()
+            .filter(|d| {
+                accel
+                    .intersect(Vec3A::ZERO, **d, 0.0, f32::INFINITY)
+                    .is_none()
+            })
+            .count();
+        assert_eq!(
+            leaks,
+            0,
+            "{leaks} of {} rays escaped the closed mesh (jitter {jitter})",
+            dirs.len()
+        );
+    }
+}
+
+#[test]
+fn negative_zero_directions_hit() {
+    // CwBvh misses every ray with a -0.0 direction component unless canonicalised (§6.1).
+    let mut rng = Sampler::new(4, 5, 6);
+    let prims = closed_sphere(8, 16, 0.1, &mut rng);
+    let accel = Accel::build(&prims);
+    for d in [
+        Vec3A::new(-0.0, 0.0, 1.0),
+        Vec3A::new(0.0, -0.0, 1.0),
+        Vec3A::new(1.0, -0.0, 0.0),
+        Vec3A::new(0.0, 1.0, -0.0),
+        -Vec3A::new(0.0, 0.0, -1.0),
+        Vec3A::new(-0.0, -0.0, -1.0),
+    ] {
+        assert!(
+            accel
+                .intersect(Vec3A::new(0.01, 0.02, 0.03), d, 0.0, f32::INFINITY)
+                .is_some(),
+            "missed {d:?}"
+        );
+        assert!(
+            !accel.unoccluded(Vec3A::new(0.01, 0.02, 0.03), d, 0.0, 10.0),
+            "shadow ray missed {d:?}"
+        );
+    }
+}
+
+#[test]
+fn matches_brute_force() {
+    let mut rng = Sampler::new(8, 9, 10);
+    let mut r3 = || Vec3A::new(rng.next_1d(), rng.next_1d(), rng.next_1d()) * 2.0 - Vec3A::ONE;
+    let mut prims: Vec<Prim> = (0..400)
+        .map(|_| {
+            let c = r3();
+            Prim::Triangle([c, c + r3() * 0.2, c + r3() * 0.2])
+        })
+        .collect();
+    prims.push(Prim::Sphere {
+        center: Vec3A::new(0.3, -0.2, 0.1),
+        radius: 0.25,
+    });
+    prims.push(Prim::Disk {
+        inv: glam::Affine3A::from_translation(glam::Vec3::new(0.0, 0.0, -0.5)).inverse(),
+    });
+    let accel = Accel::build(&prims);
+    let mut hits = 0;
+    for _ in 0..20_000 {
+        let o = r3() * 1.5;
+        let d = r3().normalize();
+        let a = accel.intersect(o, d, 0.0, f32::INFINITY);
+        let b = intersect_brute(&prims, o, d, 0.0, f32::INFINITY);
+        match (a, b) {
+            (Some(a), Some(b)) => {
+                assert_eq!(a.prim, b.prim);
+                assert!((a.t - b.t).abs() <= 1e-5 * b.t.max(1.0));
+                hits += 1;
+            }
+            (None, None) => {}
+            _ => panic!("BVH and brute force disagree: {a:?} vs {b:?}"),
+        }
+        assert_eq!(
+            accel.unoccluded(o, d, 0.0, 2.0),
+            intersect_brute(&prims, o, d, 0.0, 2.0).is_none()
+        );
+    }
+    assert!(hits > 1000);
+}
+
+#[test]
+fn analytic_primitives() {
+    let s = Prim::Sphere {
+        center: Vec3A::new(0.0, 0.0, 5.0),
+        radius: 1.0,
+    };
+    let (t, _) = s
+        .intersect(Vec3A::ZERO, Vec3A::Z, 0.0, f32::INFINITY)
+        .expect("hit");
+    assert!((t - 4.0).abs() < 1e-6);
+    assert!((s.area() - 4.0 * std::f32::consts::PI).abs() < 1e-5);
+    let d = Prim::Disk {
+        inv: glam::Affine3A::from_scale_rotation_translation(
+            glam::Vec3::new(2.0, 2.0, 1.0),
+            glam::Quat::IDENTITY,
+            glam::Vec3::new(0.0, 0.0, 3.0),
+        )
+        .inverse(),
+    };
+    assert!((d.area() - 4.0 * std::f32::consts::PI).abs() < 1e-4);
+    assert!(
+        d.intersect(Vec3A::new(1.9, 0.0, 0.0), Vec3A::Z, 0.0, f32::INFINITY)
+            .is_some()
+    );
+    assert!(
+        d.intersect(Vec3A::new(2.1, 0.0, 0.0), Vec3A::Z, 0.0, f32::INFINITY)
+            .is_none()
+    );
+}

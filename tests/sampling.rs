@@ -1,0 +1,156 @@
+//! χ² goodness-of-fit tests of every sampling routine against its density (in the manner of
+//! Mitsuba's `chi2.py` and pbrt-v4's `Chi2Test`): histogram N samples over a grid, integrate the
+//! density over each cell for the expected counts, pool cells expecting < 5, and reject when the
+//! Wilson–Hilferty normal score of the χ² statistic exceeds a Šidák-corrected threshold.
+
+use glam::{Vec2, Vec3A};
+use nlos_rs::sampling::*;
+use std::f32::consts::PI;
+
+const N: usize = 400_000;
+const RES: usize = 31; // odd, as Mitsuba's harness advises
+/// One-sided normal quantile for α = 0.01 Šidák-corrected over the tests in this file (~8).
+const Z_CRIT: f64 = 3.1;
+
+/// χ² over (observed, expected) with pooling; returns the Wilson–Hilferty z score.
+fn chi2_z(obs: &[f64], exp: &[f64]) -> f64 {
+    let (mut chi2, mut dof) = (0.0, 0usize);
+    let (mut po, mut pe) = (0.0, 0.0);
+    for (&o, &e) in obs.iter().zip(exp) {
+        if e < 5.0 {
+            po += o;
+            pe += e;
+        } else {
+            chi2 += (o - e) * (o - e) / e;
+            dof += 1;
+        }
+    }
+    if pe > 0.0 {
+        chi2 += (po - pe) * (po - pe) / pe;
+        dof += 1;
+    } else {
+        assert_eq!(po, 0.0, "samples fell where the density is zero");
+    }
+    let k = (dof - 1) as f64;
+    ((chi2 / k).powf(1.0 / 3.0) - (1.0 - 2.0 / (9.0 * k))) / (2.0 / (9.0 * k)).sqrt()
+}
+
+/// Test a 2D-parametrised warp: `cell(sample)` gives (a, b) ∈ [0,1)², `pdf(a, b)` the density in
+/// those coordinates (already including the Jacobian).
+fn check(name: &str, warp: impl Fn(Vec2) -> Vec2, pdf: impl Fn(f64, f64) -> f64) {
+    let mut rng = Sampler::new(7, 1, 2);
+    let mut obs = vec![0.0; RES * RES];
+    for _ in 0..N {
+        let c = warp(rng.next_2d());
+        let (i, j) = ((c.x * RES as f32) as usize, (c.y * RES as f32) as usize);
+        obs[j.min(RES - 1) * RES + i.min(RES - 1)] += 1.0;
+    }
+    let sub = 40; // fine enough that boundary cells are integrated to well under their noise
+    let h = 1.0 / (RES * sub) as f64;
+    let mut exp = vec![0.0; RES * RES];
+    for j in 0..RES * sub {
+        for i in 0..RES * sub {
+            let (a, b) = ((i as f64 + 0.5) * h, (j as f64 + 0.5) * h);
+            exp[(j / sub) * RES + i / sub] += pdf(a, b) * h * h * N as f64;
+        }
+    }
+    let z = chi2_z(&obs, &exp);
+    assert!(z < Z_CRIT, "{name}: chi-square z = {z:.2} (>= {Z_CRIT})");
+}
+
+#[test]
+fn cosine_hemisphere_matches_pdf() {
+    // Coordinates (cosθ, φ/2π); dω = d(cosθ) dφ, so the density there is pdf(ω)·2π.
+    check(
+        "cosine hemisphere",
+        |u| {
+            let w = square_to_cosine_hemisphere(u);
+            Vec2::new(w.z, (w.y.atan2(w.x) / (2.0 * PI)).rem_euclid(1.0))
+        },
+        |c, _| {
+            square_to_cosine_hemisphere_pdf(Vec3A::new(0.0, 0.0, c as f32)) as f64
+                * 2.0
+                * std::f64::consts::PI
+        },
+    );
+}
+
+#[test]
+fn uniform_sphere_matches_pdf() {
+    check(
+        "uniform sphere",
+        |u| {
+            let w = square_to_uniform_sphere(u);
+            Vec2::new(
+                (w.z + 1.0) / 2.0,
+                (w.y.atan2(w.x) / (2.0 * PI)).rem_euclid(1.0),
+            )
+        },
+        |_, _| UNIFORM_SPHERE_PDF as f64 * 4.0 * std::f64::consts::PI,
+    );
+}
+
+#[test]
+fn concentric_disk_matches_pdf() {
+    check(
+        "concentric disk",
+        |u| (square_to_uniform_disk_concentric(u) + Vec2::ONE) / 2.0,
+        |a, b| {
+            square_to_uniform_disk_pdf(Vec2::new(2.0 * a as f32 - 1.0, 2.0 * b as f32 - 1.0)) as f64
+                * 4.0
+        },
+    );
+}
+
+#[test]
+fn triangle_is_uniform() {
+    // Barycentrics are uniform on the simplex {b1 + b2 ≤ 1} (density 2).
+    check("uniform triangle", square_to_uniform_triangle, |a, b| {
+        if a + b <= 1.0 { 2.0 } else { 0.0 }
+    });
+}
+
+#[test]
+fn discrete_matches_pmf() {
+    let w = [0.5, 3.0, 0.0, 1.25, 7.0, 0.25];
+    let d = Discrete::new(&w).expect("valid weights");
+    let total: f64 = w.iter().sum();
+    let mut rng = Sampler::new(3, 0, 0);
+    let mut obs = vec![0.0; w.len()];
+    let mut reuse = vec![0.0; 10];
+    for _ in 0..N {
+        let (i, r) = d.sample_reuse(rng.next_1d());
+        obs[i] += 1.0;
+        reuse[((r * 10.0) as usize).min(9)] += 1.0;
+    }
+    for (i, wi) in w.iter().enumerate() {
+        assert!((d.pmf(i) as f64 - wi / total).abs() < 1e-6);
+    }
+    assert_eq!(obs[2], 0.0, "a zero-weight entry was sampled");
+    let exp: Vec<f64> = w.iter().map(|wi| wi / total * N as f64).collect();
+    assert!(chi2_z(&obs, &exp) < Z_CRIT, "discrete distribution");
+    // The rescaled number is itself uniform (it is reused to place the point).
+    assert!(
+        chi2_z(&reuse, &vec![N as f64 / 10.0; 10]) < Z_CRIT,
+        "sample_reuse remainder"
+    );
+}
+
+#[test]
+fn discrete_rejects_bad_weights() {
+    assert!(Discrete::new(&[]).is_none());
+    assert!(Discrete::new(&[0.0, 0.0]).is_none());
+    assert!(Discrete::new(&[1.0, -1.0]).is_none());
+    assert!(Discrete::new(&[1.0, f64::NAN]).is_none());
+}
+
+#[test]
+fn streams_are_reproducible_and_distinct() {
+    let draw = |a, b| {
+        let mut s = Sampler::new(11, a, b);
+        (0..4).map(|_| s.next_1d()).collect::<Vec<_>>()
+    };
+    assert_eq!(draw(5, 6), draw(5, 6));
+    assert_ne!(draw(5, 6), draw(6, 5));
+    assert_ne!(draw(5, 6), draw(5, 7));
+}

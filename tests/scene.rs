@@ -1,0 +1,236 @@
+//! Scene building, hidden-geometry sampling against its density, and render invariants.
+
+use glam::{DMat4, DVec3, Vec2};
+use nlos_rs::integrator::HiddenGeometry;
+use nlos_rs::props::{Props, Value};
+use nlos_rs::render::{Monitor, RenderOptions, render};
+use nlos_rs::sampling::Sampler;
+use nlos_rs::{NlosError, Scene};
+use std::path::Path;
+
+fn obj(plugin: &str, entries: Vec<(&str, Value)>) -> Value {
+    let mut p = Props::new(plugin, None);
+    for (k, v) in entries {
+        p.insert(k, v).expect("distinct keys");
+    }
+    Value::Object(p)
+}
+
+/// Relay wall (2×2 m at z = 0), two hidden rectangles facing it (areas 0.16 and 0.64 m²).
+fn scene_props(extra_integrator: Vec<(&str, Value)>, film_extra: Vec<(&str, Value)>) -> Props {
+    let rect = |c: [f64; 3], half: f64| {
+        let m = DMat4::from_translation(DVec3::from(c))
+            * DMat4::from_rotation_x(std::f64::consts::PI)
+            * DMat4::from_scale(DVec3::splat(half));
+        obj("rectangle", vec![("to_world", Value::Matrix(m))])
+    };
+    let mut film = vec![
+        ("width", Value::Int(4)),
+        ("height", Value::Int(4)),
+        ("temporal_bins", Value::Int(400)),
+        ("bin_width_opl", Value::Float(0.01)),
+        ("start_opl", Value::Float(1.0)),
+        ("rfilter", obj("box", vec![])),
+    ];
+    film.retain(|(k, _)| !film_extra.iter().any(|(e, _)| e == k));
+    film.extend(film_extra);
+    let meter = obj(
+        "nlos_capture_meter",
+        vec![
+            ("sensor_origin", Value::Vec3([-0.5, 0.0, 0.25])),
+            (
+                "sampler",
+                obj("independent", vec![("sample_count", Value::Int(300))]),
+            ),
+            ("film", obj("transient_hdr_film", film)),
+        ],
+    );
+    let mut integ = vec![
+        ("nlos_laser_sampling", Value::Bool(true)),
+        ("nlos_hidden_geometry_sampling", Value::Bool(true)),
+        ("max_depth", Value::Int(-1)),
+    ];
+    integ.extend(extra_integrator);
+    let laser =
+        nlos_rs::math::look_at([-0.5, 0.0, 0.25], [0.0; 3], [0.0, 1.0, 0.0]).expect("valid");
+    let mut root = Props::new("scene", None);
+    root.insert("integrator", obj("transient_nlos_path", integ))
+        .unwrap();
+    root.insert("small", rect([0.3, 0.2, 0.8], 0.2)).unwrap();
+    root.insert("big", rect([-0.2, -0.1, 1.2], 0.4)).unwrap();
+    root.insert(
+        "laser",
+        obj(
+            "projector",
+            vec![
+                ("fov", Value::Float(0.2)),
+                ("to_world", Value::Matrix(laser)),
+            ],
+        ),
+    )
+    .unwrap();
+    root.insert("wall", obj("rectangle", vec![("nlos_sensor", meter)]))
+        .unwrap();
+    root
+}
+
+fn load(p: &Props) -> Scene {
+    Scene::from_props(p, Path::new(".")).expect("valid scene")
+}
+
+#[test]
+fn hidden_geometry_sampling_is_uniform_by_area() {
+    let scene = load(&scene_props(vec![], vec![]));
+    let hg = HiddenGeometry::new(&scene, false).expect("hidden geometry");
+    assert!(
+        (hg.total_area() - 0.8).abs() < 1e-5,
+        "area {}",
+        hg.total_area()
+    );
+    let (n, res) = (400_000usize, 8usize);
+    let mut counts = vec![0.0f64; 2 * res * res];
+    let mut rng = Sampler::new(0, 0, 0);
+    for _ in 0..n {
+        let it = hg.sample(&scene, rng.next_1d(), rng.next_2d());
+        let (k, c, half) = if it.p.z < 1.0 {
+            (0, [0.3, 0.2], 0.2)
+        } else {
+            (1, [-0.2, -0.1], 0.4)
+        };
+        let u = ((it.p.x - c[0]) / (2.0 * half) + 0.5).clamp(0.0, 0.999);
+        let v = ((it.p.y - c[1]) / (2.0 * half) + 0.5).clamp(0.0, 0.999);
+        assert!((it.ns.z + 1.0).abs() < 1e-5, "normal faces the wall");
+        counts[k * res * res + (v * res as f32) as usize * res + (u * res as f32) as usize] += 1.0;
+    }
+    // Expected: area fraction of each shape, spread uniformly over its cells.
+    let exp: Vec<f64> = (0..2 * res * res)
+        .map(|i| if i < res * res { 0.2 } else { 0.8 } * n as f64 / (res * res) as f64)
+        .collect();
+    let chi2: f64 = counts
+        .iter()
+        .zip(&exp)
+        .map(|(o, e)| (o - e) * (o - e) / e)
+        .sum();
+    let k = (2 * res * res - 1) as f64;
+    let z = ((chi2 / k).powf(1.0 / 3.0) - (1.0 - 2.0 / (9.0 * k))) / (2.0 / (9.0 * k)).sqrt();
+    assert!(z < 3.1, "chi-square z = {z}");
+}
+
+#[test]
+fn unknown_keys_are_rejected_with_plugin_and_key() {
+    let p = scene_props(vec![("max_dpeth", Value::Int(3))], vec![]);
+    match Scene::from_props(&p, Path::new(".")) {
+        Err(NlosError::Property { plugin, key, .. }) => assert_eq!(
+            (plugin.as_str(), key.as_str()),
+            ("transient_nlos_path", "max_dpeth")
+        ),
+        other => panic!("expected a property error, got {:?}", other.err()),
+    }
+    let p = scene_props(vec![], vec![("temporal_bins", Value::Float(3.0))]);
+    let e = Scene::from_props(&p, Path::new("."))
+        .err()
+        .expect("type error")
+        .to_string();
+    assert!(
+        e.contains("transient_hdr_film") && e.contains("temporal_bins"),
+        "{e}"
+    );
+}
+
+#[test]
+fn bit_identical_whatever_the_thread_count() {
+    let scene = load(&scene_props(vec![], vec![]));
+    let run = |threads| {
+        render(
+            &scene,
+            &RenderOptions {
+                spp: Some(600),
+                seed: 3,
+                threads: Some(threads),
+                mono: true,
+            },
+            &Monitor::default(),
+        )
+        .expect("render")
+    };
+    let (a, b) = (run(1), run(2));
+    assert_eq!(a.transient, b.transient);
+    assert_eq!(a.steady, b.steady);
+    assert!(a.transient.iter().any(|&v| v > 0.0));
+}
+
+#[test]
+fn steady_is_the_time_integral_when_the_window_holds_everything() {
+    let scene = load(&scene_props(vec![], vec![]));
+    let r = render(
+        &scene,
+        &RenderOptions {
+            spp: Some(500),
+            seed: 0,
+            threads: None,
+            mono: false,
+        },
+        &Monitor::default(),
+    )
+    .expect("render");
+    assert_eq!(r.transient_shape, vec![4, 4, 400, 3]);
+    for px in 0..16 {
+        for c in 0..3 {
+            let sum: f64 = (0..400)
+                .map(|t| r.transient[(px * 400 + t) * 3 + c] as f64)
+                .sum();
+            let st = r.steady[px * 3 + c] as f64;
+            assert!(
+                (sum - st).abs() <= 1e-4 * st.max(1e-12),
+                "pixel {px}: {sum} vs {st}"
+            );
+        }
+    }
+}
+
+#[test]
+fn cancellation_stops_the_render() {
+    let scene = load(&scene_props(vec![], vec![]));
+    let m = Monitor::default();
+    m.cancel.store(true, std::sync::atomic::Ordering::Relaxed);
+    let r = render(
+        &scene,
+        &RenderOptions {
+            spp: Some(100_000),
+            seed: 0,
+            threads: None,
+            mono: true,
+        },
+        &m,
+    );
+    assert!(matches!(r, Err(NlosError::Interrupted)));
+}
+
+#[test]
+fn exhaustive_layout_and_uv() {
+    let p = scene_props(
+        vec![("capture_type", Value::Str("exhaustive".into()))],
+        vec![
+            ("exhaustive_scan", Value::Bool(true)),
+            ("laser_scan_width", Value::Int(4)),
+            ("laser_scan_height", Value::Int(4)),
+        ],
+    );
+    let scene = load(&p);
+    let r = render(
+        &scene,
+        &RenderOptions {
+            spp: Some(64),
+            seed: 0,
+            threads: None,
+            mono: true,
+        },
+        &Monitor::default(),
+    )
+    .expect("render");
+    assert_eq!(r.transient_shape, vec![4, 4, 4, 4, 400, 1]);
+    assert_eq!(r.steady_shape, vec![4, 4, 1]);
+    // Pixel (x, y) scans local (2(x+½)/W − 1, 2(y+½)/H − 1, 0): pixel (3, 0) is at (+0.75, −0.75).
+    let (p, n) = scene.relay_wall_point(Vec2::new(3.5 / 4.0, 0.5 / 4.0));
+    assert!((p.x - 0.75).abs() < 1e-6 && (p.y + 0.75).abs() < 1e-6 && (n.z - 1.0).abs() < 1e-6);
+}
