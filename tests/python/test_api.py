@@ -1,0 +1,149 @@
+"""The Python surface: layout, variants, determinism, XML = dict, transforms, aiming, GIL and Ctrl-C."""
+
+import _thread
+import subprocess
+import sys
+import threading
+import time
+
+import numpy as np
+import pytest
+
+import nlos_rs
+
+
+def small(**kw):
+    return nlos_rs.scenes.z_nlos_1corner(width=4, height=4, spp=64, **kw)
+
+
+def test_import_does_not_import_mitsuba():
+    code = "import sys, nlos_rs; nlos_rs.render(nlos_rs.scenes.z_nlos_1corner(width=2, height=2, spp=4)); print('mitsuba' in sys.modules)"
+    assert subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.strip() == "False"
+
+
+@pytest.mark.parametrize("variant, c", [("mono", 1), ("rgb", 3), ("llvm_ad_mono", 1), ("llvm_ad_rgb", 3)])
+def test_layout(variant, c):
+    steady, transient = nlos_rs.render(small(), variant=variant, progress=False)
+    assert steady.dtype == np.float32 and transient.dtype == np.float32
+    assert steady.shape == (4, 4, c) and transient.shape == (4, 4, 300, c)
+    assert transient.sum() > 0
+
+
+def test_rgb_channels_follow_reflectance_and_mono_is_luminance():
+    d = small()
+    d["z"]["bsdf"]["reflectance"] = {"type": "rgb", "value": [1.0, 0.5, 0.25]}
+    _, rgb = nlos_rs.render(d, variant="rgb", progress=False)
+    _, mono = nlos_rs.render(d, variant="mono", progress=False)
+    tot = rgb.sum((0, 1, 2))
+    # Three-vertex paths touch the Z once: channel ratios are the reflectance ratios.
+    np.testing.assert_allclose(tot / tot[0], [1.0, 0.5, 0.25], rtol=1e-5)
+    lum = 0.212671 * 1.0 + 0.715160 * 0.5 + 0.072169 * 0.25
+    np.testing.assert_allclose(mono.sum() / tot[0], lum, rtol=1e-5)
+
+
+def test_deterministic_whatever_the_thread_count():
+    d = small()
+    a = nlos_rs.render(d, seed=5, threads=1, progress=False)
+    b = nlos_rs.render(d, seed=5, threads=2, progress=False)
+    c = nlos_rs.render(d, seed=6, threads=2, progress=False)
+    assert np.array_equal(a[1], b[1]) and np.array_equal(a[0], b[0])
+    assert not np.array_equal(a[1], c[1])
+
+
+def test_xml_route_equals_dict_route(tmp_path):
+    d = small()
+    xml = f"""<scene version="3.5.0">
+  <default name="spp" value="64"/>
+  <integrator type="transient_nlos_path">
+    <boolean name="nlos_laser_sampling" value="true"/><boolean name="nlos_hidden_geometry_sampling" value="true"/>
+    <boolean name="nlos_hidden_geometry_sampling_includes_relay_wall" value="false"/>
+    <integer name="max_depth" value="-1"/><string name="capture_type" value="single"/>
+  </integrator>
+  <bsdf type="diffuse" id="white"><rgb name="reflectance" value="1, 1, 1"/></bsdf>
+  <shape type="obj" id="z"><string name="filename" value="{d['z']['filename']}"/><ref id="white"/>
+    <transform name="to_world"><translate z="1.0"/></transform></shape>
+  <emitter type="projector" id="laser"><rgb name="irradiance" value="1, 1, 1"/><float name="fov" value="0.2"/>
+    <transform name="to_world"><lookat origin="-0.5, 0, 0.25" target="0, 0, 0" up="0, 1, 0"/></transform></emitter>
+  <shape type="rectangle" id="relay_wall"><ref id="white"/>
+    <sensor type="nlos_capture_meter"><point name="sensor_origin" value="-0.5, 0, 0.25"/>
+      <sampler type="independent"><integer name="sample_count" value="$spp"/></sampler>
+      <film type="transient_hdr_film"><integer name="width" value="4"/><integer name="height" value="4"/>
+        <integer name="temporal_bins" value="300"/><float name="bin_width_opl" value="0.006"/>
+        <float name="start_opl" value="1.85"/><rfilter type="box"/></film></sensor></shape>
+</scene>"""
+    path = tmp_path / "z.xml"
+    path.write_text(xml)
+    a = nlos_rs.render(d, progress=False)
+    b = nlos_rs.render(nlos_rs.load_file(path, spp=64), progress=False)
+    c = nlos_rs.render(str(path), spp=64, progress=False)  # an XML path in place of a Scene
+    assert np.array_equal(a[1], b[1]) and np.array_equal(a[1], c[1])
+
+
+def test_transforms_match_mitsuba(peer):
+    mi = peer
+    T, M = nlos_rs.Transform4f, mi.ScalarTransform4f
+    axis = (np.array([0.3, 1, 0.2]) / np.linalg.norm([0.3, 1, 0.2])).tolist()  # Mitsuba does not normalise it
+    pairs = [
+        (T().translate([1, 2, 3]), M().translate([1, 2, 3])),
+        (T().rotate(axis, 37), M().rotate(axis, 37)),
+        (T().scale([1, 2, 3]), M().scale([1, 2, 3])),
+        (T().look_at([-0.5, 0, 0.25], [0, 0, 0], [0, 1, 0]), M().look_at([-0.5, 0, 0.25], [0, 0, 0], [0, 1, 0])),
+        (T().translate([0, 0, 1]).rotate([1, 0, 0], 90).scale(0.5), M().translate([0, 0, 1]).rotate([1, 0, 0], 90).scale(0.5)),
+    ]
+    for ours, theirs in pairs:
+        np.testing.assert_allclose(ours.matrix, np.array(theirs.matrix), atol=1e-6)
+    # Mitsuba transform objects are accepted in scene dicts.
+    d = small()
+    d["z"]["to_world"] = M().translate([0, 0, 1])
+    assert np.array_equal(nlos_rs.render(d, progress=False)[1], nlos_rs.render(small(), progress=False)[1])
+
+
+def test_focus_functions():
+    scene = nlos_rs.load_dict(small())
+    nlos_rs.nlos.focus_emitter_at_relay_wall_pixel((4, 2), scene)  # uv (1, 0.5): the wall's +x edge
+    m = np.array(scene.laser_to_world)
+    axis = m[:3, 2]
+    target = np.array([1.0, 0.0, 0.0]) - np.array([-0.5, 0, 0.25])
+    np.testing.assert_allclose(axis, target / np.linalg.norm(target), atol=1e-6)
+    nlos_rs.nlos.focus_emitter_at_relay_wall_3dpoint((0.2, 0.1, 0.0), scene, scene)
+    nlos_rs.nlos.focus_emitter_at_relay_wall_uv((0.5, 0.5), scene)
+    np.testing.assert_allclose(np.array(scene.laser_to_world)[:3, 3], [-0.5, 0, 0.25], atol=1e-6)
+    with pytest.raises(TypeError):
+        nlos_rs.nlos.focus_emitter_at_relay_wall_uv((0.5, 0.5), "wall", "laser")
+
+
+def long_render():
+    return nlos_rs.scenes.z_nlos_1corner(width=32, height=32, spp=1 << 20)
+
+
+def test_ctrl_c_stops_within_a_second():
+    timer = threading.Timer(0.5, _thread.interrupt_main)
+    t0 = time.monotonic()
+    timer.start()
+    with pytest.raises(KeyboardInterrupt):
+        nlos_rs.render(long_render(), progress=False)
+    assert time.monotonic() - t0 < 1.5
+
+
+def test_gil_is_released():
+    ticks = []
+    stop = threading.Event()
+
+    def count():
+        while not stop.is_set():
+            ticks.append(1)
+            time.sleep(0.001)
+
+    th = threading.Thread(target=count)
+    th.start()
+    try:
+        nlos_rs.render(nlos_rs.scenes.z_nlos_1corner(width=32, height=32, spp=1 << 14), progress=False)
+    finally:
+        stop.set()
+        th.join()
+    assert len(ticks) > 20
+
+
+def test_progress_bar(capsys):
+    nlos_rs.render(nlos_rs.scenes.z_nlos_1corner(width=32, height=32, spp=1 << 16), progress=True)
+    assert "nlos_rs" in capsys.readouterr().err
