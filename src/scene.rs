@@ -154,17 +154,20 @@ pub struct Meter {
     pub seed: u64,
     /// Film.
     pub film: Film,
+    /// Things accepted but ignored, for the caller to show.
+    pub warnings: Vec<String>,
 }
 
 impl Meter {
     fn from_props(p: &Props) -> Result<Self> {
         let origin = p.vec3("sensor_origin", [0.0; 3])?;
+        let mut warnings = Vec::new();
         if p.has("account_first_and_last_bounces") {
-            return Err(NlosError::prop(
-                "nlos_capture_meter",
-                "account_first_and_last_bounces",
-                "deprecated (mitransient ignores it here): set it on the transient_nlos_path integrator",
-            ));
+            // tal still writes it here; mitransient 1.3.1 warns and ignores it, and so do we.
+            p.bool("account_first_and_last_bounces", false)?;
+            warnings.push(
+                "nlos_capture_meter: 'account_first_and_last_bounces' is deprecated and ignored here; set it on the transient_nlos_path integrator".to_string(),
+            );
         }
         for key in ["shutter_open", "shutter_close"] {
             // mitransient adds shutter_open (seconds) to the optical path (metres): a defect we do not copy.
@@ -216,6 +219,7 @@ impl Meter {
             spp,
             seed,
             film,
+            warnings,
         })
     }
 }

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import os
 import time
+import warnings
 from typing import Any, Mapping, Optional, Tuple, Union
 
 import numpy as np
@@ -69,7 +70,7 @@ def load_dict(d: Mapping[str, Any]) -> Scene:
     """
     if not isinstance(d, Mapping):
         raise TypeError(f"load_dict expects a dict, got {type(d).__name__}")
-    return _core.load_dict(_normalize(d), os.getcwd())
+    return _warn(_core.load_dict(_normalize(d), os.getcwd()))
 
 
 def load_file(path: Union[str, os.PathLike], **params: Any) -> Scene:
@@ -78,7 +79,13 @@ def load_file(path: Union[str, os.PathLike], **params: Any) -> Scene:
     def text(v: Any) -> str:
         return ("true" if v else "false") if isinstance(v, bool) else str(v)
 
-    return _core.load_file(os.fspath(path), {k: text(v) for k, v in params.items()})
+    return _warn(_core.load_file(os.fspath(path), {k: text(v) for k, v in params.items()}))
+
+
+def _warn(scene: Scene) -> Scene:
+    for w in scene.warnings:
+        warnings.warn(w, stacklevel=3)
+    return scene
 
 
 _VARIANTS = {"mono": True, "rgb": False}

@@ -264,6 +264,28 @@ impl PyScene {
     fn relay_wall_index(&self) -> usize {
         self.get().relay_wall
     }
+    /// Warnings raised while loading (accepted-but-ignored parameters).
+    #[getter]
+    fn warnings(&self) -> Vec<String> {
+        self.get().meter.warnings.clone()
+    }
+    /// First surface point seen through each scan pixel, (H, W, 3) as nested lists (NaN where
+    /// the sensor sees nothing): the points the capture measures and, in confocal and
+    /// equal-grid exhaustive captures, where the laser is aimed.
+    fn scan_points(&self) -> PyResult<Vec<Vec<[f32; 3]>>> {
+        let s = self.get();
+        let cap = crate::capture::Capture::new(&s, true)?;
+        let w = s.meter.film.width;
+        Ok(cap
+            .sensor_targets
+            .chunks(w)
+            .map(|row| {
+                row.iter()
+                    .map(|t| t.map_or([f32::NAN; 3], |i| i.p.to_array()))
+                    .collect()
+            })
+            .collect())
+    }
     /// Relay-wall point and normal at uv ∈ [0, 1]² (`rectangle.sample_position`).
     fn relay_wall_point(&self, u: f32, v: f32) -> ([f32; 3], [f32; 3]) {
         let (p, n) = self.get().relay_wall_point(Vec2::new(u, v));

@@ -147,3 +147,33 @@ def test_gil_is_released():
 def test_progress_bar(capsys):
     nlos_rs.render(nlos_rs.scenes.z_nlos_1corner(width=32, height=32, spp=1 << 16), progress=True)
     assert "nlos_rs" in capsys.readouterr().err
+
+
+def test_sensor_flag_is_deprecated_and_ignored_like_mitransient():
+    d = small()
+    d["relay_wall"]["nlos_sensor"]["account_first_and_last_bounces"] = True
+    with pytest.warns(UserWarning, match="deprecated and ignored"):
+        scene = nlos_rs.load_dict(d)
+    assert np.array_equal(nlos_rs.render(scene, progress=False)[1], nlos_rs.render(small(), progress=False)[1])
+
+
+def test_shutter_time_does_not_leak_into_the_optical_path():
+    """mitransient starts the optical path at shutter_open (seconds added to metres, spec §7
+    item 11); a sensor's shutter has nothing to do with the optical path length."""
+    d = small()
+    d["relay_wall"]["nlos_sensor"]["shutter_open"] = 0.5
+    assert np.array_equal(nlos_rs.render(d, progress=False)[1], nlos_rs.render(small(), progress=False)[1])
+
+
+@pytest.mark.parametrize("w", [25, 29, 49, 64])
+def test_scan_points_are_pixel_centres_for_any_grid_width(w):
+    """mitransient snaps x/W with float32 floor((x/W)·W) + 0.5, which for W = 25 sends columns
+    5, 10, 15, 20, 23 to the previous pixel's point (spec §7 item 6); these points are also the
+    confocal laser targets."""
+    scene = nlos_rs.load_dict(nlos_rs.scenes.z_nlos_1corner(width=w, height=3, spp=1))
+    pts = np.array(scene.scan_points())
+    xs = 2 * (np.arange(w) + 0.5) / w - 1
+    ys = 2 * (np.arange(3) + 0.5) / 3 - 1
+    np.testing.assert_allclose(pts[..., 0], np.broadcast_to(xs, (3, w)), atol=2e-6)
+    np.testing.assert_allclose(pts[..., 1], np.broadcast_to(ys[:, None], (3, w)), atol=2e-6)
+    np.testing.assert_allclose(pts[..., 2], 0, atol=1e-6)

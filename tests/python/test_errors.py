@@ -37,7 +37,6 @@ def sensor(d):
         (lambda d: sensor(d)["film"].update(rfilter={"type": "gaussian"}), ["rfilter", "gaussian"]),
         (lambda d: sensor(d)["film"].update(exhaustive_scan=True, laser_scan_width=4, laser_scan_height=4), ["exhaustive"]),
         (lambda d: sensor(d).update(laser_origin=[0, 0, 1]), ["nlos_capture_meter", "laser_origin"]),
-        (lambda d: sensor(d).update(account_first_and_last_bounces=True), ["account_first_and_last_bounces", "integrator"]),
         (lambda d: sensor(d).update(sampler={"type": "stratified"}), ["stratified"]),
         (lambda d: sensor(d)["sampler"].update(sample_count=0), ["independent", "sample_count"]),
         (lambda d: d["laser"].update(fov=0.0), ["projector", "fov"]),
