@@ -250,39 +250,31 @@ impl HiddenGeometry {
     pub fn sample(&self, scene: &Scene, u1: f32, u2: Vec2) -> Interaction {
         let (k, _) = self.dist.sample_reuse(u1);
         let i = self.prims[k] as usize;
-        let (p, ng, ns) = match scene.prims[i] {
+        let (p, ng, b) = match scene.prims[i] {
             Prim::Triangle(v) => {
                 let b = square_to_uniform_triangle(u2);
                 let p = v[0] * (1.0 - b.x - b.y) + v[1] * b.x + v[2] * b.y;
-                let ng = (v[1] - v[0]).cross(v[2] - v[0]).normalize();
-                let ns = scene.prim_normals[i].map_or(ng, |n| {
-                    (n[0] * (1.0 - b.x - b.y) + n[1] * b.x + n[2] * b.y).normalize_or(ng)
-                });
-                (p, ng, ns)
+                (
+                    p,
+                    (v[1] - v[0]).cross(v[2] - v[0]).normalize(),
+                    b.to_array(),
+                )
             }
             Prim::Sphere { center, radius } => {
                 let n = square_to_uniform_sphere(u2);
-                (center + n * radius, n, n)
+                (center + n * radius, n, [0.0; 2])
             }
             Prim::Disk { inv } => {
                 let q = square_to_uniform_disk_concentric(u2);
                 let p = inv.inverse().transform_point3a(Vec3A::new(q.x, q.y, 0.0));
-                let n = inv.matrix3.transpose().mul_vec3a(Vec3A::Z).normalize();
-                (p, n, n)
+                (
+                    p,
+                    inv.matrix3.transpose().mul_vec3a(Vec3A::Z).normalize(),
+                    [0.0; 2],
+                )
             }
         };
-        let shape = scene.prim_shape[i];
-        let s = if scene.shape_flip[shape as usize] {
-            -1.0
-        } else {
-            1.0
-        };
-        Interaction {
-            p,
-            ng: ng * s,
-            ns: ns * s,
-            shape,
-        }
+        scene.surface_point(i, p, ng, b)
     }
 }
 

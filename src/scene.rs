@@ -559,11 +559,15 @@ impl Scene {
     pub fn interaction(&self, o: Vec3A, d: Vec3A, hit: &Hit) -> Interaction {
         let i = hit.prim as usize;
         let (p, ng) = self.prims[i].surface(o, d, hit);
-        let ns = match self.prim_normals[i] {
-            Some(n) => (n[0] * (1.0 - hit.b[0] - hit.b[1]) + n[1] * hit.b[0] + n[2] * hit.b[1])
-                .normalize_or(ng),
-            None => ng,
-        };
+        self.surface_point(i, p, ng, hit.b)
+    }
+
+    /// The interaction at point `p` of primitive `i` (geometric normal `ng`, barycentrics `b` for
+    /// triangles): shading normal interpolated from vertex normals, `flip_normals` applied.
+    pub fn surface_point(&self, i: usize, p: Vec3A, ng: Vec3A, b: [f32; 2]) -> Interaction {
+        let ns = self.prim_normals[i].map_or(ng, |n| {
+            (n[0] * (1.0 - b[0] - b[1]) + n[1] * b[0] + n[2] * b[1]).normalize_or(ng)
+        });
         let shape = self.prim_shape[i];
         let s = if self.shape_flip[shape as usize] {
             -1.0

@@ -177,3 +177,36 @@ def test_scan_points_are_pixel_centres_for_any_grid_width(w):
     np.testing.assert_allclose(pts[..., 0], np.broadcast_to(xs, (3, w)), atol=2e-6)
     np.testing.assert_allclose(pts[..., 1], np.broadcast_to(ys[:, None], (3, w)), atol=2e-6)
     np.testing.assert_allclose(pts[..., 2], 0, atol=1e-6)
+
+
+def test_ply_and_relative_paths(tmp_path):
+    """A PLY copy of the Z renders exactly like the OBJ, and XML mesh paths resolve against the
+    XML file's folder."""
+    from nlos_rs.scenes import z_letter
+
+    verts, faces = z_letter()
+    ply = ["ply", "format ascii 1.0", f"element vertex {len(verts)}", "property float x", "property float y",
+           "property float z", f"element face {len(faces)}", "property list uchar int vertex_indices", "end_header"]
+    ply += [f"{x!r} {y!r} {z!r}" for x, y, z in verts.astype(np.float32).tolist()] + [f"3 {a} {b} {c}" for a, b, c in faces]
+    (tmp_path / "meshes").mkdir()
+    (tmp_path / "meshes" / "z.ply").write_text("\n".join(ply) + "\n")
+    d = small()
+    ref = nlos_rs.render(d, progress=False)[1]
+    d["z"].update(type="ply", filename=str(tmp_path / "meshes" / "z.ply"))
+    assert np.array_equal(nlos_rs.render(d, progress=False)[1], ref)
+    xml = f"""<scene version="3.5.0">
+  <integrator type="transient_nlos_path"><boolean name="nlos_laser_sampling" value="true"/>
+    <boolean name="nlos_hidden_geometry_sampling" value="true"/><integer name="max_depth" value="-1"/></integrator>
+  <shape type="ply"><string name="filename" value="meshes/z.ply"/>
+    <bsdf type="diffuse"><rgb name="reflectance" value="1"/></bsdf><transform name="to_world"><translate z="1"/></transform></shape>
+  <emitter type="projector"><rgb name="irradiance" value="1"/><float name="fov" value="0.2"/>
+    <transform name="to_world"><lookat origin="-0.5, 0, 0.25" target="0, 0, 0" up="0, 1, 0"/></transform></emitter>
+  <shape type="rectangle"><bsdf type="diffuse"><rgb name="reflectance" value="1"/></bsdf>
+    <sensor type="nlos_capture_meter"><point name="sensor_origin" x="-0.5" y="0" z="0.25"/>
+      <sampler type="independent"><integer name="sample_count" value="64"/></sampler>
+      <film type="transient_hdr_film"><integer name="width" value="4"/><integer name="height" value="4"/>
+        <integer name="temporal_bins" value="300"/><float name="bin_width_opl" value="0.006"/>
+        <float name="start_opl" value="1.85"/><rfilter type="box"/></film></sensor></shape>
+</scene>"""
+    (tmp_path / "scene.xml").write_text(xml)
+    assert np.array_equal(nlos_rs.render(str(tmp_path / "scene.xml"), progress=False)[1], ref)
