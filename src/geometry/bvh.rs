@@ -1,8 +1,11 @@
 //! The one module that talks to obvhs. It guards against the crate's known defects
 //! (shared/reference/obvhs-notes.md §6): directions are canonicalised so that no component is
-//! `-0.0` (CwBvh would miss such rays), bounds are padded so rays lying in a box face are not lost,
-//! and hits use our watertight primitive tests instead of obvhs' Möller–Trumbore ones (which leak
-//! through shared edges).
+//! `-0.0` (CwBvh would miss such rays), hits use our watertight primitive tests instead of obvhs'
+//! Möller–Trumbore ones (which leak through shared edges), and rays (nearly) parallel to an axis plane are
+//! traced by brute force: obvhs' node test clamps the entry distance to 1e-4, so it culls a box
+//! whose face contains such a ray (a scan ray in a symmetry plane of the scene). Padding the boxes
+//! instead would cost every ray: CwBvh quantises child boxes outwards, turning a flat relay wall
+//! into a slab that every shadow ray towards the wall enters.
 
 use super::{Hit, Prim};
 use glam::Vec3A;
@@ -14,16 +17,18 @@ use obvhs::{
 };
 
 impl Boundable for Prim {
-    /// Bounds padded by a relative epsilon: a ray lying exactly in a box face (axis-aligned walls,
-    /// scan rays in symmetry planes) must not fail obvhs' slab test on a tie.
     fn aabb(&self) -> Aabb {
         let (min, max) = self.bounds();
-        let pad = (min.abs().max(max.abs()) + Vec3A::ONE) * 1e-6;
-        Aabb {
-            min: min - pad,
-            max: max + pad,
-        }
+        Aabb { min, max }
     }
+}
+
+/// Is the (unit) direction parallel, to within rounding, to an axis plane? A ray starting on a
+/// box face with such a direction can be culled by obvhs' node test although it hits a primitive in
+/// the box; random directions are this close with probability ~3e-6, scan rays in symmetry planes always.
+#[inline]
+fn near_axis_plane(d: Vec3A) -> bool {
+    d.abs().min_element() < 1e-6
 }
 
 /// A compressed-wide BVH over the scene's primitives, kept in BVH slot order.
@@ -67,6 +72,13 @@ impl Accel {
         if self.prims.is_empty() {
             return None;
         }
+        if near_axis_plane(d) {
+            let hit = intersect_brute(&self.prims, o, d, tmin, tmax)?;
+            return Some(Hit {
+                prim: self.slot_to_prim[hit.prim as usize],
+                ..hit
+            });
+        }
         let ray = Self::ray(o, d, tmin, tmax);
         let mut hit = RayHit::none();
         let mut bary = [0.0f32; 2];
@@ -92,6 +104,12 @@ impl Accel {
     pub fn unoccluded(&self, o: Vec3A, d: Vec3A, tmin: f32, tmax: f32) -> bool {
         if self.prims.is_empty() {
             return true;
+        }
+        if near_axis_plane(d) {
+            return self
+                .prims
+                .iter()
+                .all(|p| p.intersect(o, d, tmin, tmax).is_none());
         }
         let ray = Self::ray(o, d, tmin, tmax);
         self.bvh.ray_traverse_miss(ray, |r, slot| {
