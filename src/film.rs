@@ -4,6 +4,76 @@
 use crate::error::{NlosError, Result};
 use crate::props::{Props, Value};
 
+/// The Gaussian kernel is truncated at this many standard deviations and renormalised.
+pub const GAUSSIAN_CUTOFF_SIGMAS: f64 = 4.0;
+
+/// How a contribution is spread over time bins (thesis §3.2, after Jarabo et al. 2014).
+///
+/// A contribution arrives at the continuous bin coordinate x = (opl − start_opl)/Δ. `Box` puts all
+/// of it in bin ⌊x⌋; the kernels centre a density K(u − x) there and give bin j the integral of K
+/// over [j, j + 1), so the weights sum to one (energy is conserved) and no bin is point-sampled.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum TemporalKernel {
+    /// A hard histogram (mitransient).
+    Box,
+    /// Gaussian with standard deviation σ (in bins), truncated at ±4σ.
+    Gaussian(f64),
+    /// Epanechnikov K(u) = 3/(4b)·(1 − (u/b)²) on [−b, b] (b in bins).
+    Epanechnikov(f64),
+}
+
+impl TemporalKernel {
+    /// Kernel from `kernel_sigma` / `kernel_bandwidth` values (at most one may be set).
+    pub fn from_params(plugin: &str, sigma: Option<f64>, bandwidth: Option<f64>) -> Result<Self> {
+        match (sigma, bandwidth) {
+            (Some(_), Some(_)) => Err(NlosError::prop(
+                plugin,
+                "kernel_bandwidth",
+                "set kernel_sigma (Gaussian) or kernel_bandwidth (Epanechnikov), not both",
+            )),
+            (Some(s), None) if s > 0.0 && s.is_finite() => Ok(Self::Gaussian(s)),
+            (None, Some(b)) if b > 0.0 && b.is_finite() => Ok(Self::Epanechnikov(b)),
+            (Some(s), None) => Err(NlosError::prop(
+                plugin,
+                "kernel_sigma",
+                format!("must be positive, got {s}"),
+            )),
+            (None, Some(b)) => Err(NlosError::prop(
+                plugin,
+                "kernel_bandwidth",
+                format!("must be positive, got {b}"),
+            )),
+            (None, None) => Ok(Self::Box),
+        }
+    }
+
+    /// Cumulative distribution of the kernel at offset u (bins) from its centre.
+    fn cdf(&self, u: f64) -> f64 {
+        match *self {
+            Self::Box => (u >= 0.0) as u8 as f64,
+            Self::Gaussian(s) => {
+                let r = GAUSSIAN_CUTOFF_SIGMAS;
+                let z = (u / s).clamp(-r, r);
+                let phi = |z: f64| 0.5 * libm::erfc(-z / std::f64::consts::SQRT_2);
+                (phi(z) - phi(-r)) / (phi(r) - phi(-r))
+            }
+            Self::Epanechnikov(b) => {
+                let v = (u / b).clamp(-1.0, 1.0);
+                0.5 + 0.75 * v - 0.25 * v * v * v
+            }
+        }
+    }
+
+    /// Half-width of the kernel's support, in bins.
+    fn radius(&self) -> f64 {
+        match *self {
+            Self::Box => 0.0,
+            Self::Gaussian(s) => GAUSSIAN_CUTOFF_SIGMAS * s,
+            Self::Epanechnikov(b) => b,
+        }
+    }
+}
+
 /// The film of an `nlos_capture_meter`.
 #[derive(Clone, Debug)]
 pub struct Film {
@@ -19,6 +89,8 @@ pub struct Film {
     pub start_opl: f64,
     /// Laser grid (LW, LH) when the film stores an exhaustive scan.
     pub laser_scan: Option<(usize, usize)>,
+    /// Temporal density estimation kernel (`kernel_sigma` / `kernel_bandwidth`).
+    pub kernel: TemporalKernel,
 }
 
 impl Film {
@@ -46,6 +118,15 @@ impl Film {
         let exhaustive = p.bool("exhaustive_scan", false)?;
         let lw = p.int_in("laser_scan_width", 0, 0, 1 << 12)? as usize;
         let lh = p.int_in("laser_scan_height", 0, 0, 1 << 12)? as usize;
+        let opt = |key: &str| -> Result<Option<f64>> {
+            Ok(if p.has(key) {
+                Some(p.float(key, 0.0)?)
+            } else {
+                None
+            })
+        };
+        let kernel =
+            TemporalKernel::from_params(&p.plugin, opt("kernel_sigma")?, opt("kernel_bandwidth")?)?;
         let laser_scan = if exhaustive {
             if lw == 0 || lh == 0 {
                 return Err(NlosError::prop(
@@ -106,6 +187,7 @@ impl Film {
             bin_width_opl,
             start_opl,
             laser_scan,
+            kernel,
         })
     }
 
@@ -114,10 +196,28 @@ impl Film {
         self.laser_scan.map_or(1, |(w, h)| w * h)
     }
 
-    /// The bin of a contribution with optical path length `opl`, if inside the time window.
+    /// Spread a contribution of optical path length `opl` over the bins of the time window:
+    /// `put(bin, weight)` for every bin it reaches (weights sum to one away from the window's ends).
     #[inline]
-    pub fn bin(&self, opl: f64) -> Option<usize> {
+    pub fn splat(&self, opl: f64, mut put: impl FnMut(usize, f32)) {
         let x = (opl - self.start_opl) / self.bin_width_opl;
-        (x >= 0.0 && x < self.temporal_bins as f64).then_some(x as usize)
+        let t = self.temporal_bins as f64;
+        if self.kernel == TemporalKernel::Box {
+            if x >= 0.0 && x < t {
+                put(x as usize, 1.0);
+            }
+            return;
+        }
+        let r = self.kernel.radius();
+        let (lo, hi) = ((x - r).floor().max(0.0), (x + r).floor().min(t - 1.0));
+        if lo > hi {
+            return;
+        }
+        let mut below = self.kernel.cdf(lo - x);
+        for j in lo as usize..=hi as usize {
+            let above = self.kernel.cdf(j as f64 + 1.0 - x);
+            put(j, (above - below) as f32);
+            below = above;
+        }
     }
 }

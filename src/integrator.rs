@@ -8,7 +8,7 @@
 
 use crate::capture::{Capture, Spot};
 use crate::error::{NlosError, Result};
-use crate::film::Film;
+use crate::film::{Film, TemporalKernel};
 use crate::geometry::{Interaction, Prim, shadow_segment};
 use crate::math::{COS_EPS, Frame, Spectrum};
 use crate::props::Props;
@@ -29,6 +29,55 @@ pub enum CaptureType {
     Confocal,
     /// Every laser point × every scan point.
     Exhaustive,
+}
+
+/// How `transient_nlos_path_rs` uses its N hidden-geometry draws (thesis §3.1).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum HgrsEstimator {
+    /// As the thesis publishes it: redraw until a point is visible (at most N tries) and weight the
+    /// accepted point as for one draw. Biased upwards where part of the hidden geometry is not
+    /// visible: an accepted point's probability grows by Σ_{k<N} (1 − a)^k, a the visible fraction.
+    Rejection,
+    /// Unbiased: draw N candidates, continue from one chosen uniformly among the visible ones, and
+    /// multiply the weight by (visible count / N) — resampled importance sampling with a visibility
+    /// target (Talbot et al. 2005), i.e. the mean of N one-draw estimates carried by one path.
+    Resampled,
+}
+
+/// Hidden Geometry Rejection Sampling settings.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Hgrs {
+    /// Draws per vertex (N).
+    pub max_iterations: u32,
+    /// Estimator.
+    pub estimator: HgrsEstimator,
+}
+
+impl Hgrs {
+    fn parse(plugin: &str, max_iterations: i64, estimator: &str) -> Result<Self> {
+        if !(1..=1_000_000).contains(&max_iterations) {
+            return Err(NlosError::prop(
+                plugin,
+                "hgrs_max_iterations",
+                format!("must be in [1, 1000000], got {max_iterations}"),
+            ));
+        }
+        let estimator = match estimator {
+            "resampled" => HgrsEstimator::Resampled,
+            "rejection" => HgrsEstimator::Rejection,
+            other => {
+                return Err(NlosError::prop(
+                    plugin,
+                    "hgrs_estimator",
+                    format!("must be 'resampled' or 'rejection', got '{other}'"),
+                ));
+            }
+        };
+        Ok(Self {
+            max_iterations: max_iterations as u32,
+            estimator,
+        })
+    }
 }
 
 /// The parameters of `transient_nlos_path` (mitransient-nlos-spec §2), validated.
@@ -60,6 +109,10 @@ pub struct NlosSettings {
     pub hgs_includes_relay_wall: bool,
     /// Use hidden-geometry sampling only at loop depths below this.
     pub hgs_max_depth: Option<u32>,
+    /// `transient_nlos_path_rs`: rejection sampling of hidden geometry.
+    pub hgrs: Option<Hgrs>,
+    /// `temporal_filter='gaussian'` with `gaussian_stddev` (bins), applied to the film.
+    pub temporal_kernel: Option<TemporalKernel>,
 }
 
 fn depth_param(p: &Props, key: &str, default: i64) -> Result<Option<u32>> {
@@ -120,15 +173,31 @@ impl NlosSettings {
                 ));
             }
         };
-        let temporal_filter = p.string("temporal_filter", "")?;
-        if !matches!(temporal_filter.as_str(), "" | "box") {
-            return Err(NlosError::prop(
+        // mitransient 1.3.1 accepts and ignores these; here 'gaussian' is the Gaussian kernel.
+        let stddev = p.float("gaussian_stddev", 0.5)?;
+        let temporal_kernel = match p.string("temporal_filter", "")?.as_str() {
+            "" | "box" => None,
+            "gaussian" => Some(
+                TemporalKernel::from_params(plugin, Some(stddev), None)
+                    .map_err(|_| NlosError::prop(plugin, "gaussian_stddev", "must be positive"))?,
+            ),
+            other => {
+                return Err(NlosError::prop(
+                    plugin,
+                    "temporal_filter",
+                    format!("must be 'box' or 'gaussian', got '{other}'"),
+                ));
+            }
+        };
+        let hgrs = if plugin == "transient_nlos_path_rs" {
+            Some(Hgrs::parse(
                 plugin,
-                "temporal_filter",
-                format!("'{temporal_filter}' is not supported yet: use 'box'"),
-            ));
-        }
-        p.float("gaussian_stddev", 0.5)?;
+                p.int("hgrs_max_iterations", 10)?,
+                &p.string("hgrs_estimator", "resampled")?,
+            )?)
+        } else {
+            None
+        };
         if p.bool("camera_unwarp", false)? {
             return Err(NlosError::prop(
                 plugin,
@@ -156,8 +225,17 @@ impl NlosSettings {
             hgs_includes_relay_wall: p
                 .bool("nlos_hidden_geometry_sampling_includes_relay_wall", false)?,
             hgs_max_depth,
+            hgrs,
+            temporal_kernel,
         };
         p.finish()?;
+        if s.hgrs.is_some() && !s.hidden_geometry_sampling {
+            return Err(NlosError::prop(
+                plugin,
+                "nlos_hidden_geometry_sampling",
+                "transient_nlos_path_rs rejection-samples hidden geometry: it needs nlos_hidden_geometry_sampling=true",
+            ));
+        }
         if !(s.illumination_scan_fov > 0.0 && s.illumination_scan_fov < 180.0) {
             return Err(NlosError::prop(
                 plugin,
@@ -171,6 +249,62 @@ impl NlosSettings {
                 "capture_type",
                 "confocal and exhaustive captures need nlos_laser_sampling=true (mitransient silently ignores capture_type without it)",
             ));
+        }
+        Ok(s)
+    }
+
+    /// The same settings under another integrator name (`transient_nlos_path` or `..._rs`), with
+    /// optional HGRS parameters, as `render(..., integrator=...)` does.
+    pub fn switched(
+        &self,
+        name: &str,
+        max_iterations: Option<i64>,
+        estimator: Option<&str>,
+    ) -> Result<Self> {
+        let mut s = self.clone();
+        match name {
+            "transient_nlos_path" => {
+                if max_iterations.is_some() || estimator.is_some() {
+                    return Err(NlosError::prop(
+                        "render",
+                        "integrator",
+                        "hgrs_* options need integrator='transient_nlos_path_rs'",
+                    ));
+                }
+                s.hgrs = None;
+            }
+            "transient_nlos_path_rs" => {
+                let cur = self.hgrs.unwrap_or(Hgrs {
+                    max_iterations: 10,
+                    estimator: HgrsEstimator::Resampled,
+                });
+                let est = match estimator {
+                    Some(e) => e,
+                    None if cur.estimator == HgrsEstimator::Rejection => "rejection",
+                    None => "resampled",
+                };
+                s.hgrs = Some(Hgrs::parse(
+                    name,
+                    max_iterations.unwrap_or(cur.max_iterations as i64),
+                    est,
+                )?);
+                if !s.hidden_geometry_sampling {
+                    return Err(NlosError::prop(
+                        name,
+                        "nlos_hidden_geometry_sampling",
+                        "transient_nlos_path_rs needs nlos_hidden_geometry_sampling=true",
+                    ));
+                }
+            }
+            other => {
+                return Err(NlosError::prop(
+                    "render",
+                    "integrator",
+                    format!(
+                        "must be 'transient_nlos_path' or 'transient_nlos_path_rs', got '{other}'"
+                    ),
+                ));
+            }
         }
         Ok(s)
     }
@@ -366,6 +500,69 @@ impl Capture<'_> {
         out((0, opl + last, beta * f * self.irradiance * weight));
     }
 
+    /// One hidden-geometry sample from `x` (spec §3.3) with the visibility test mitransient lacks:
+    /// an invalid or occluded draw is a zero-valued sample of the area integral. Returns the next
+    /// vertex, its distance and the weight f·A_total·cosθ_y/r².
+    #[inline]
+    fn hidden_candidate(
+        &self,
+        hg: &HiddenGeometry,
+        x: &Interaction,
+        wi: Vec3A,
+        rho: Spectrum,
+        rng: &mut Sampler,
+    ) -> Option<(Interaction, f32, Spectrum)> {
+        let y = hg.sample(self.scene, rng.next_1d(), rng.next_2d());
+        let v = y.p - x.p;
+        let r2 = v.length_squared();
+        let r = r2.sqrt();
+        let w = v / r;
+        let cos_g = y.ns.dot(-w);
+        if x.ng.dot(w) <= COS_EPS || cos_g <= COS_EPS || r2 / (hg.total_area() * cos_g) <= COS_EPS {
+            return None;
+        }
+        let f = diffuse_f(rho, x.ns, wi, w)?;
+        let (o, d, tmax) = shadow_segment(x, y.p);
+        if !self.scene.accel.unoccluded(o, d, 0.0, tmax) {
+            return None;
+        }
+        Some((y, r, f * (hg.total_area() * cos_g / r2)))
+    }
+
+    /// Hidden-geometry sampling, plain (one draw) or with rejection (thesis §3.1, HGRS).
+    fn sample_hidden(
+        &self,
+        hg: &HiddenGeometry,
+        x: &Interaction,
+        wi: Vec3A,
+        rho: Spectrum,
+        rng: &mut Sampler,
+    ) -> Option<(Interaction, f32, Spectrum)> {
+        let Some(h) = self.settings.hgrs else {
+            return self.hidden_candidate(hg, x, wi, rho, rng);
+        };
+        match h.estimator {
+            // Redraw until a visible point turns up; weight as for one draw (biased, as published).
+            HgrsEstimator::Rejection => {
+                (0..h.max_iterations).find_map(|_| self.hidden_candidate(hg, x, wi, rho, rng))
+            }
+            // Keep one of the visible candidates uniformly (reservoir sampling), weight × m/N.
+            HgrsEstimator::Resampled => {
+                let mut chosen = None;
+                let mut m = 0u32;
+                for _ in 0..h.max_iterations {
+                    if let Some(c) = self.hidden_candidate(hg, x, wi, rho, rng) {
+                        m += 1;
+                        if rng.next_1d() * (m as f32) < 1.0 {
+                            chosen = Some(c);
+                        }
+                    }
+                }
+                chosen.map(|(y, r, w)| (y, r, w * (m as f32 / h.max_iterations as f32)))
+            }
+        }
+    }
+
     /// Trace one path from the scan point of `pixel` (spec §3.2–3.3), emitting every contribution.
     pub fn trace(&self, pixel: usize, rng: &mut Sampler, out: &mut impl FnMut(Splat)) {
         let st = self.settings;
@@ -422,29 +619,11 @@ impl Capture<'_> {
                 use_hgs = rng.next_1d() < 0.5;
             }
             let (next, dist, weight) = if use_hgs {
-                // Hidden-geometry sampling (spec §3.3) with the visibility test mitransient lacks:
-                // an occluded sample is a zero-valued sample of the area integral.
                 let Some(hg) = &self.hidden else { break };
-                let y = hg.sample(self.scene, rng.next_1d(), rng.next_2d());
-                let v = y.p - it.p;
-                let r2 = v.length_squared();
-                let r = r2.sqrt();
-                let w = v / r;
-                let cos_g = y.ns.dot(-w);
-                if it.ng.dot(w) <= COS_EPS
-                    || cos_g <= COS_EPS
-                    || r2 / (hg.total_area() * cos_g) <= COS_EPS
-                {
-                    break;
-                }
-                let Some(f) = diffuse_f(rho, it.ns, wi, w) else {
+                let Some(step) = self.sample_hidden(hg, &it, wi, rho, rng) else {
                     break;
                 };
-                let (o, d, tmax) = shadow_segment(&it, y.p);
-                if !self.scene.accel.unoccluded(o, d, 0.0, tmax) {
-                    break;
-                }
-                (y, r, f * (hg.total_area() * cos_g / r2))
+                step
             } else {
                 // Cosine-weighted BSDF sampling: weight f/pdf = ρ.
                 if it.ns.dot(wi) <= 0.0 {

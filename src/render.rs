@@ -24,6 +24,8 @@ pub struct RenderOptions {
     pub threads: Option<usize>,
     /// One channel (`mono`) or three (`rgb`).
     pub mono: bool,
+    /// Temporal kernel overriding the film's.
+    pub kernel: Option<crate::film::TemporalKernel>,
 }
 
 /// A rendered capture in mitransient's layout.
@@ -61,7 +63,11 @@ pub fn render(scene: &Scene, opts: &RenderOptions, monitor: &Monitor) -> Result<
         return Err(NlosError::prop("render", "spp", "must be positive"));
     }
     let seed = scene.meter.seed.wrapping_add(opts.seed);
-    let film = &scene.meter.film;
+    let mut film = scene.meter.film.clone();
+    if let Some(k) = opts.kernel {
+        film.kernel = k;
+    }
+    let film = &film;
     let cap = Capture::new(scene, opts.mono)?;
     let c = cap.channels;
     let (t, slots) = (film.temporal_bins, film.laser_slots());
@@ -82,12 +88,12 @@ pub fn render(scene: &Scene, opts: &RenderOptions, monitor: &Monitor) -> Result<
                     for k in 0..c {
                         sum[k] += v[k] as f64;
                     }
-                    if let Some(bin) = film.bin(opl) {
+                    film.splat(opl, |bin, w| {
                         let at = (slot * t + bin) * c;
                         for k in 0..c {
-                            buf[at + k] += v[k];
+                            buf[at + k] += v[k] * w;
                         }
-                    }
+                    });
                 };
                 let mut start = 0;
                 while start < spp {

@@ -482,7 +482,7 @@ impl Scene {
             match p.plugin.as_str() {
                 "diffuse" => {}
                 s if SHAPES.contains(&s) => b.add_shape(key, p)?,
-                "transient_nlos_path" => {
+                "transient_nlos_path" | "transient_nlos_path_rs" => {
                     if integrator.is_some() {
                         return Err(NlosError::prop("scene", key, "a second integrator"));
                     }
@@ -537,6 +537,17 @@ impl Scene {
                 "the relay wall must be a 'rectangle' (got '{}'): the scan grid is defined on its parametrisation",
                 b.shapes[relay_wall].plugin
             )));
+        }
+        let mut meter = meter;
+        if let Some(k) = integrator.temporal_kernel {
+            if meter.film.kernel != crate::film::TemporalKernel::Box {
+                return Err(NlosError::prop(
+                    "transient_hdr_film",
+                    "kernel_sigma",
+                    "the integrator's temporal_filter='gaussian' already sets a temporal kernel",
+                ));
+            }
+            meter.film.kernel = k;
         }
         integrator.check(&meter.film)?;
         let accel = std::sync::Arc::new(Accel::build(&b.prims));

@@ -148,6 +148,7 @@ fn bit_identical_whatever_the_thread_count() {
                 seed: 3,
                 threads: Some(threads),
                 mono: true,
+                kernel: None,
             },
             &Monitor::default(),
         )
@@ -169,6 +170,7 @@ fn steady_is_the_time_integral_when_the_window_holds_everything() {
             seed: 0,
             threads: None,
             mono: false,
+            kernel: None,
         },
         &Monitor::default(),
     )
@@ -200,6 +202,7 @@ fn cancellation_stops_the_render() {
             seed: 0,
             threads: None,
             mono: true,
+            kernel: None,
         },
         &m,
     );
@@ -224,6 +227,7 @@ fn exhaustive_layout_and_uv() {
             seed: 0,
             threads: None,
             mono: true,
+            kernel: None,
         },
         &Monitor::default(),
     )

@@ -19,7 +19,7 @@ import numpy as np
 
 from . import _core
 from ._core import Scene, SceneError, __version__
-from . import nlos, scenes, transform
+from . import metrics, nlos, scenes, transform
 from .transform import Transform4f
 
 __all__ = [
@@ -28,6 +28,7 @@ __all__ = [
     "Transform4f",
     "load_dict",
     "load_file",
+    "metrics",
     "nlos",
     "render",
     "scenes",
@@ -130,6 +131,11 @@ def render(
     threads: Optional[int] = None,
     progress: bool = True,
     variant: str = "mono",
+    integrator: Optional[str] = None,
+    kernel_sigma: Optional[float] = None,
+    kernel_bandwidth: Optional[float] = None,
+    hgrs_max_iterations: Optional[int] = None,
+    hgrs_estimator: Optional[str] = None,
 ) -> Tuple[np.ndarray, np.ndarray]:
     """Render an NLOS capture; returns ``(steady, transient)`` as float32 arrays.
 
@@ -138,6 +144,12 @@ def render(
     ``"rgb"``. ``spp`` defaults to the scene sampler's ``sample_count``; ``seed`` is added to its
     ``seed``. Results are bit-identical for a seed whatever ``threads`` is. The GIL is released;
     Ctrl-C stops the render (``KeyboardInterrupt``).
+
+    ``integrator`` switches the scene's integrator by name (``"transient_nlos_path"`` or
+    ``"transient_nlos_path_rs"``, Hidden Geometry Rejection Sampling, with ``hgrs_max_iterations``
+    and ``hgrs_estimator`` = ``"resampled"`` (unbiased, default) or ``"rejection"`` (as the thesis
+    publishes it, biased)) keeping its other parameters. ``kernel_sigma`` (Gaussian) or
+    ``kernel_bandwidth`` (Epanechnikov), in time bins, override the film's temporal kernel.
     """
     key = variant.split("_")[-1] if variant.startswith(("llvm_", "cuda_", "scalar_")) else variant
     if key not in _VARIANTS:
@@ -148,8 +160,11 @@ def render(
         raise ValueError(f"threads must be a positive integer, got {threads!r}")
     if not isinstance(seed, (int, np.integer)) or seed < 0:
         raise ValueError(f"seed must be a non-negative integer, got {seed!r}")
+    scene = _as_scene(scene)
+    if integrator is not None or hgrs_max_iterations is not None or hgrs_estimator is not None:
+        scene = scene.with_integrator(integrator or scene.integrator, hgrs_max_iterations, hgrs_estimator)
     bar = _Progress(progress)
     try:
-        return _core.render(_as_scene(scene), spp, int(seed), threads, _VARIANTS[key], bar)
+        return _core.render(scene, spp, int(seed), threads, _VARIANTS[key], bar, kernel_sigma, kernel_bandwidth)
     finally:
         bar.close()

@@ -86,6 +86,21 @@ def z_letter(width: float = 0.8, height: float = 1.0, stroke: float = 0.2, thick
     return extrude(outline, caps, thickness)
 
 
+def t_letter(width: float = 0.6, height: float = 0.6, stroke: float = 0.15, thickness: float = 0.02):
+    """A T letter in the z = 0 plane (front face towards -z), as a thin closed solid."""
+    w, h, s = width / 2, height / 2, stroke / 2
+    outline = [(-w, h), (w, h), (w, h - 2 * s), (s, h - 2 * s), (s, -h), (-s, -h), (-s, h - 2 * s), (-w, h - 2 * s)]
+    caps = [(0, 1, 2), (0, 2, 3), (0, 3, 6), (0, 6, 7), (6, 3, 4), (6, 4, 5)]
+    return extrude(outline, caps, thickness)
+
+
+def t_mesh_path(thickness: float = 0.02) -> str:
+    path = cache_dir() / f"t_letter_v1_t{thickness:g}.obj"
+    if not path.exists():
+        write_obj(path, *t_letter(thickness=thickness))
+    return str(path)
+
+
 def z_mesh_path(thickness: float = 0.02) -> str:
     path = cache_dir() / f"z_letter_v2_t{thickness:g}.obj"
     if not path.exists():
@@ -136,3 +151,46 @@ def z_nlos_1corner(width: int = 32, height: int = 32, spp: int = 512, temporal_b
          "bsdf": _diffuse()}
     return nlos_scene({"z": z}, width=width, height=height, spp=spp, temporal_bins=temporal_bins,
                       bin_width_opl=bin_width_opl, start_opl=start_opl, capture_type=capture_type, **integrator)
+
+
+#: Two-corner geometry (metres); see :func:`t_nlos_2corner`.
+T_SECONDARY_CENTRE = (1.6, 0.0, 1.0)
+T_LETTER_CENTRE = (0.3, 0.0, 2.2)
+T_LASER_TARGET = (0.5, 0.0, 0.0)
+
+
+def t_nlos_2corner(secondary: str = "small", width: int = 32, height: int = 32, spp: int = 1024,
+                   temporal_bins: int = 800, bin_width_opl: float = 0.01, start_opl: float = 1.0,
+                   capture_type: str = "single", thickness: float = 0.02, **integrator) -> dict:
+    """A T letter behind two corners (thesis §5.3.2–5.3.3).
+
+    Coordinates (metres, y up): relay wall 2x2 m at z = 0 facing +z; laser and sensor at
+    (-0.5, 0, 0.25), the laser aimed at (0.5, 0, 0). A diffuse secondary wall in the plane x = 1.6,
+    centred at (1.6, 0, 1.0) and facing -x (towards the relay wall's side), 0.5x0.5 m (``"small"``)
+    or 2x2 m (``"big"``). The T (0.6x0.6 m, stroke 0.15 m, thin solid) is centred at (0.3, 0, 2.2)
+    facing +x, towards the secondary wall. A black (reflectance 0) occluder, 2.5x2 m in the plane
+    z = 1.5 (x from -1.5 to 1.0), hides the T from every relay-wall point, so light reaches the T
+    only through the secondary wall: wall -> secondary -> T -> secondary -> laser spot, five
+    vertices (``filter_bounces=4``), optical path about 7 m (23 ns).
+
+    Bins: 800 x 0.01 m from 1.0 m (1.0-9.0 m). Integrator: laser sampling and hidden-geometry
+    sampling *including the relay wall* (mitransient's advice for higher-order bounces), unbounded
+    depth. Extra keyword arguments override integrator parameters.
+    """
+    if secondary not in ("small", "big"):
+        raise ValueError(f"secondary must be 'small' or 'big', got {secondary!r}")
+    half = 0.25 if secondary == "small" else 1.0
+    T = Transform4f
+    hidden = {
+        "secondary_wall": {"type": "rectangle", "bsdf": _diffuse(),
+                           "to_world": T().translate(list(T_SECONDARY_CENTRE)).rotate([0, 1, 0], -90).scale(half)},
+        "t": {"type": "obj", "filename": t_mesh_path(thickness), "bsdf": _diffuse(),
+              "to_world": T().translate(list(T_LETTER_CENTRE)).rotate([0, 1, 0], -90)},
+        "occluder": {"type": "rectangle", "bsdf": {"type": "diffuse", "reflectance": 0.0},
+                     "to_world": T().translate([-0.25, 0.0, 1.5]).rotate([1, 0, 0], 180).scale([1.25, 1.0, 1.0])},
+    }
+    settings = {"nlos_hidden_geometry_sampling_includes_relay_wall": True}
+    settings.update(integrator)
+    return nlos_scene(hidden, width=width, height=height, spp=spp, temporal_bins=temporal_bins,
+                      bin_width_opl=bin_width_opl, start_opl=start_opl, capture_type=capture_type,
+                      laser_target=T_LASER_TARGET, **settings)

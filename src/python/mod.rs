@@ -264,6 +264,39 @@ impl PyScene {
     fn relay_wall_index(&self) -> usize {
         self.get().relay_wall
     }
+    /// The integrator's name.
+    #[getter]
+    fn integrator(&self) -> &'static str {
+        if self.get().integrator.hgrs.is_some() {
+            "transient_nlos_path_rs"
+        } else {
+            "transient_nlos_path"
+        }
+    }
+    /// The film's temporal kernel: ('box', 0), ('gaussian', sigma) or ('epanechnikov', b), in bins.
+    #[getter]
+    fn temporal_kernel(&self) -> (&'static str, f64) {
+        match self.get().meter.film.kernel {
+            crate::film::TemporalKernel::Box => ("box", 0.0),
+            crate::film::TemporalKernel::Gaussian(s) => ("gaussian", s),
+            crate::film::TemporalKernel::Epanechnikov(b) => ("epanechnikov", b),
+        }
+    }
+    /// The same scene under another integrator ('transient_nlos_path' or 'transient_nlos_path_rs'),
+    /// keeping every other parameter.
+    #[pyo3(signature = (name, hgrs_max_iterations=None, hgrs_estimator=None))]
+    fn with_integrator(
+        &self,
+        name: &str,
+        hgrs_max_iterations: Option<i64>,
+        hgrs_estimator: Option<&str>,
+    ) -> PyResult<PyScene> {
+        let mut s = (*self.get()).clone();
+        s.integrator = s
+            .integrator
+            .switched(name, hgrs_max_iterations, hgrs_estimator)?;
+        Ok(PyScene::wrap(s))
+    }
     /// Warnings raised while loading (accepted-but-ignored parameters).
     #[getter]
     fn warnings(&self) -> Vec<String> {
@@ -351,7 +384,8 @@ type Arrays<'py> = (Bound<'py, PyAny>, Bound<'py, PyAny>);
 /// Render with the GIL released. `progress(done, total)` is called about ten times a second;
 /// Ctrl-C cancels within a poll interval.
 #[pyfunction]
-#[pyo3(signature = (scene, spp=None, seed=0, threads=None, mono=true, progress=None))]
+#[pyo3(signature = (scene, spp=None, seed=0, threads=None, mono=true, progress=None, kernel_sigma=None, kernel_bandwidth=None))]
+#[allow(clippy::too_many_arguments)]
 fn render<'py>(
     py: Python<'py>,
     scene: &PyScene,
@@ -360,9 +394,16 @@ fn render<'py>(
     threads: Option<usize>,
     mono: bool,
     progress: Option<Bound<'py, PyAny>>,
+    kernel_sigma: Option<f64>,
+    kernel_bandwidth: Option<f64>,
 ) -> PyResult<Arrays<'py>> {
     let scene = scene.get();
+    let kernel = match (kernel_sigma, kernel_bandwidth) {
+        (None, None) => None,
+        (s, b) => Some(crate::film::TemporalKernel::from_params("render", s, b)?),
+    };
     let opts = RenderOptions {
+        kernel,
         spp,
         seed,
         threads,
