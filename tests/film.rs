@@ -1,0 +1,120 @@
+//! Temporal kernel density estimation (thesis §3.2): bin weights are the kernel's integral over
+//! each bin, they sum to one inside the window, and the box kernel is mitransient's histogram.
+
+use nlos_rs::film::{Film, GAUSSIAN_CUTOFF_SIGMAS, TemporalKernel};
+use nlos_rs::sampling::Sampler;
+
+fn film(kernel: TemporalKernel) -> Film {
+    Film {
+        width: 1,
+        height: 1,
+        temporal_bins: 200,
+        bin_width_opl: 0.01,
+        start_opl: 1.0,
+        laser_scan: None,
+        kernel,
+    }
+}
+
+fn weights(f: &Film, opl: f64) -> Vec<f64> {
+    let mut w = vec![0.0; f.temporal_bins];
+    f.splat(opl, |j, v| w[j] += v as f64);
+    w
+}
+
+/// Midpoint-rule integral of a density over [a, b].
+fn integrate(pdf: impl Fn(f64) -> f64, a: f64, b: f64) -> f64 {
+    let n = 2000;
+    let h = (b - a) / n as f64;
+    (0..n).map(|i| pdf(a + (i as f64 + 0.5) * h)).sum::<f64>() * h
+}
+
+#[test]
+fn box_is_the_histogram() {
+    let f = film(TemporalKernel::Box);
+    let w = weights(&f, 1.0 + 0.01 * 37.4);
+    assert_eq!(w[37], 1.0);
+    assert_eq!(w.iter().sum::<f64>(), 1.0);
+    assert!(weights(&f, 0.999).iter().all(|&v| v == 0.0));
+    assert!(weights(&f, 3.0).iter().all(|&v| v == 0.0));
+}
+
+#[test]
+fn kernels_conserve_energy_inside_the_window() {
+    let mut rng = Sampler::new(0, 0, 0);
+    for k in [
+        TemporalKernel::Gaussian(0.3),
+        TemporalKernel::Gaussian(2.0),
+        TemporalKernel::Epanechnikov(0.7),
+        TemporalKernel::Epanechnikov(3.0),
+    ] {
+        let f = film(k);
+        for _ in 0..2000 {
+            let x = 20.0 + 160.0 * rng.next_1d() as f64;
+            let sum: f64 = weights(&f, 1.0 + 0.01 * x).iter().sum();
+            assert!((sum - 1.0).abs() < 1e-6, "{k:?} at bin {x}: sum {sum}");
+        }
+    }
+}
+
+#[test]
+fn gaussian_weights_are_bin_integrals_of_the_truncated_density() {
+    let (sigma, x) = (1.7, 93.35);
+    let f = film(TemporalKernel::Gaussian(sigma));
+    let w = weights(&f, 1.0 + 0.01 * x);
+    let r = GAUSSIAN_CUTOFF_SIGMAS * sigma;
+    let pdf = |t: f64| {
+        if (t - x).abs() <= r {
+            (-(t - x).powi(2) / (2.0 * sigma * sigma)).exp()
+        } else {
+            0.0
+        }
+    };
+    let norm = integrate(pdf, x - r, x + r);
+    for j in 80..107 {
+        let expect = integrate(pdf, j as f64, j as f64 + 1.0) / norm;
+        assert!(
+            (w[j] - expect).abs() < 1e-6,
+            "bin {j}: {} vs {expect}",
+            w[j]
+        );
+    }
+    assert_eq!(w[(x - r).floor() as usize - 1], 0.0);
+    assert_eq!(w[(x + r).floor() as usize + 1], 0.0);
+}
+
+#[test]
+fn epanechnikov_weights_are_exact_on_its_support() {
+    let (b, x) = (2.5, 50.8);
+    let f = film(TemporalKernel::Epanechnikov(b));
+    let w = weights(&f, 1.0 + 0.01 * x);
+    let pdf = |t: f64| {
+        let u = (t - x) / b;
+        if u.abs() <= 1.0 {
+            0.75 / b * (1.0 - u * u)
+        } else {
+            0.0
+        }
+    };
+    for j in 45..57 {
+        let expect = integrate(pdf, j as f64, j as f64 + 1.0);
+        assert!(
+            (w[j] - expect).abs() < 1e-6,
+            "bin {j}: {} vs {expect}",
+            w[j]
+        );
+    }
+    assert_eq!(w[47], 0.0); // 50.8 - 2.5 = 48.3: bin 47 is outside the support
+    assert!(w[48] > 0.0 && w[53] > 0.0 && w[54] == 0.0);
+}
+
+#[test]
+fn kernel_parameters_are_validated() {
+    assert!(TemporalKernel::from_params("f", Some(1.0), Some(1.0)).is_err());
+    assert!(TemporalKernel::from_params("f", Some(0.0), None).is_err());
+    assert!(TemporalKernel::from_params("f", None, Some(-1.0)).is_err());
+    assert_eq!(
+        TemporalKernel::from_params("f", None, None).unwrap(),
+        TemporalKernel::Box
+    );
+}
