@@ -14,7 +14,11 @@ import numpy as np
 
 import nlos_rs
 
-BUILTIN = {"z_nlos_1corner": nlos_rs.scenes.z_nlos_1corner}
+BUILTIN = {
+    "z_nlos_1corner": nlos_rs.scenes.z_nlos_1corner,
+    "t_nlos_2corner_small": lambda: nlos_rs.scenes.t_nlos_2corner("small"),
+    "t_nlos_2corner_big": lambda: nlos_rs.scenes.t_nlos_2corner("big"),
+}
 
 
 def _load(scene: str) -> "nlos_rs.Scene":
@@ -85,6 +89,11 @@ def cmd_render(args: argparse.Namespace, scene: "nlos_rs.Scene") -> int:
 
 
 def main(argv=None) -> int:
+    argv = sys.argv[1:] if argv is None else list(argv)
+    if argv[:1] == ["evaluate"]:  # the thesis evaluation has its own options
+        from . import evaluate
+
+        return evaluate.main(argv[1:])
     ap = argparse.ArgumentParser(prog="nlos-rs", description="nlos_rs: transient NLOS rendering")
     sub = ap.add_subparsers(dest="cmd", required=True)
     common = argparse.ArgumentParser(add_help=False)
@@ -99,6 +108,7 @@ def main(argv=None) -> int:
     rend.add_argument("scene", help=f"Mitsuba XML file or one of: {', '.join(BUILTIN)}")
     rend.add_argument("--out", default="nlos_rs_out", help="output folder (default: nlos_rs_out)")
     rend.add_argument("--figures", action="store_true", help="also write PNG figures")
+    sub.add_parser("evaluate", help="reproduce the thesis evaluation (see: evaluate --help)")
     args = ap.parse_args(argv)
     try:
         if args.cmd == "demo":

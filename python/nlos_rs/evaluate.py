@@ -1,0 +1,181 @@
+"""Reproduce the thesis' evaluation (Tables 5.1-5.3, Figures 5.7-5.12, 5.16-5.17, 5.20-5.21).
+
+    python -m nlos_rs.evaluate [--scene z_nlos_1corner] [--spp N] [--gt-spp N] [--out DIR] ...
+
+For a scene it renders (and caches) a ground truth with the baseline integrator at ``--gt-spp``,
+then the baseline (``transient_nlos_path``, laser + hidden-geometry sampling), HGRS with both
+estimators (``transient_nlos_path_rs``), the Gaussian kernel and the Epanechnikov kernel:
+
+* at equal samples per pixel (``--spp``), and
+* at equal time: each technique gets the baseline's render time at ``--spp`` (or ``--time-budget``
+  seconds), its spp scaled from a calibration render.
+
+It writes ``results.md`` (spp, time, MSE and PSNR of thesis eq. 5.1/5.2 against the ground truth,
+change vs the baseline), ``results.json``, and PNG plots (radiance against time at one pixel; MSE
+and PSNR bars). Two-corner scenes are evaluated on their five-vertex signal (``filter_bounces=4``),
+the light that went through both corners, as the thesis evaluates them.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from pathlib import Path
+from typing import Dict, List
+
+import numpy as np
+
+import nlos_rs
+from nlos_rs import metrics
+
+SCENES = {
+    "z_nlos_1corner": lambda size: nlos_rs.scenes.z_nlos_1corner(width=size, height=size),
+    "t_nlos_2corner_small": lambda size: nlos_rs.scenes.t_nlos_2corner("small", width=size, height=size, filter_bounces=4),
+    "t_nlos_2corner_big": lambda size: nlos_rs.scenes.t_nlos_2corner("big", width=size, height=size, filter_bounces=4),
+}
+# The thesis' settings per scene (its §5.3): spp of the compared renders, Gaussian sigma and
+# Epanechnikov bandwidth; our scan size and a ground truth of at least 35x the spp.
+DEFAULTS = {  # size, spp, ground-truth spp, sigma, bandwidth
+    "z_nlos_1corner": (32, 30_000, 1 << 20, 1.0, 2.0),
+    "t_nlos_2corner_small": (16, 100_000, 1 << 23, 2.0, 3.0),
+    "t_nlos_2corner_big": (16, 10_000, 1 << 20, 2.0, 3.0),
+}
+TECHNIQUES = ["baseline", "hgrs", "hgrs_rejection", "gaussian", "epanechnikov"]
+LABELS = {"baseline": "Baseline (LS + HGS)", "hgrs": "HGRS, resampled (unbiased)", "hgrs_rejection": "HGRS, rejection (thesis)",
+          "gaussian": "Gaussian kernel", "epanechnikov": "Epanechnikov kernel"}
+
+
+def options(name: str, args) -> dict:
+    return {
+        "baseline": {},
+        "hgrs": {"integrator": "transient_nlos_path_rs", "hgrs_max_iterations": args.hgrs_iterations, "hgrs_estimator": "resampled"},
+        "hgrs_rejection": {"integrator": "transient_nlos_path_rs", "hgrs_max_iterations": args.hgrs_iterations, "hgrs_estimator": "rejection"},
+        "gaussian": {"kernel_sigma": args.sigma},
+        "epanechnikov": {"kernel_bandwidth": args.bandwidth},
+    }[name]
+
+
+def timed(scene, spp: int, seed: int, threads, **kw):
+    t0 = time.perf_counter()
+    _, transient = nlos_rs.render(scene, spp=spp, seed=seed, threads=threads, progress=False, **kw)
+    return transient, time.perf_counter() - t0
+
+
+def ground_truth(scene, args, out: Path) -> np.ndarray:
+    path = out / f"gt_{args.scene}_{args.size}px_{args.gt_spp}spp.npz"
+    if path.exists():
+        return np.load(path)["transient"]
+    print(f"rendering the ground truth ({args.gt_spp} spp) ...", flush=True)
+    _, transient = nlos_rs.render(scene, spp=args.gt_spp, seed=10_000, threads=args.threads, progress=True)
+    np.savez_compressed(path, transient=transient)
+    return transient
+
+
+def fmt_time(s: float) -> str:
+    return f"{s:.2f} s" if s < 60 else f"{int(s // 60)} min {s % 60:.0f} s"
+
+
+def table(rows: List[Dict], title: str) -> str:
+    base = next(r for r in rows if r["technique"] == "baseline")
+    out = [f"#### {title}", "", "| technique | spp | time | MSE ↓ | PSNR (dB) ↑ | MSE vs baseline |", "|---|---:|---:|---:|---:|---:|"]
+    for r in rows:
+        change = "—" if r["technique"] == "baseline" else f"{100 * (r['mse'] / base['mse'] - 1):+.1f} %"
+        out.append(f"| {LABELS[r['technique']]} | {r['spp']:,} | {fmt_time(r['time'])} | {r['mse']:.3g} | {r['psnr']:.2f} | {change} |")
+    return "\n".join(out)
+
+
+def plots(out: Path, gt: np.ndarray, curves: Dict[str, np.ndarray], rows: List[Dict], t0: float, dt: float, tag: str) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    h, w = gt.shape[:2]
+    py, px = np.unravel_index(np.argmax(gt[..., 0].sum(-1)), (h, w))
+    opl = t0 + (np.arange(gt.shape[2]) + 0.5) * dt
+    nz = np.nonzero(gt[py, px, :, 0])[0]
+    lo, hi = (nz[0], nz[-1] + 1) if len(nz) else (0, len(opl))
+    fig, ax = plt.subplots(figsize=(8, 3.5))
+    ax.plot(opl[lo:hi], gt[py, px, lo:hi, 0], "k", lw=2, label="ground truth")
+    for name, t in curves.items():
+        ax.plot(opl[lo:hi], t[py, px, lo:hi, 0], lw=1, label=LABELS[name])
+    ax.set_xlabel("optical path length (m)")
+    ax.set_ylabel("radiance per bin")
+    ax.set_title(f"pixel ({px}, {py}), {tag}")
+    ax.legend(fontsize=7)
+    fig.savefig(out / f"radiance_time_{tag}.png", dpi=110, bbox_inches="tight")
+    plt.close(fig)
+    fig, axes = plt.subplots(1, 2, figsize=(10, 3.2))
+    names = [LABELS[r["technique"]] for r in rows]
+    axes[0].bar(names, [r["mse"] for r in rows], color="tab:red")
+    axes[0].set_yscale("log")
+    axes[0].set_title(f"MSE ({tag})")
+    axes[1].bar(names, [r["psnr"] for r in rows], color="tab:blue")
+    axes[1].set_title(f"PSNR, dB ({tag})")
+    for a in axes:
+        a.tick_params(axis="x", rotation=30, labelsize=7)
+    fig.savefig(out / f"mse_psnr_{tag}.png", dpi=110, bbox_inches="tight")
+    plt.close(fig)
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(prog="python -m nlos_rs.evaluate", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--scene", default="z_nlos_1corner", choices=list(SCENES), help="built-in scene (default: z_nlos_1corner)")
+    ap.add_argument("--size", type=int, help="scan grid size (default: 32 for Z, 16 for the T scenes)")
+    ap.add_argument("--spp", type=int, help="samples per pixel of the compared renders (default: the thesis' 30,000 Z, 100,000 T small, 10,000 T big)")
+    ap.add_argument("--gt-spp", type=int, help="samples per pixel of the ground truth (default: 2^20; 2^23 for T small)")
+    ap.add_argument("--techniques", default=",".join(TECHNIQUES), help=f"comma-separated subset of {','.join(TECHNIQUES)}")
+    ap.add_argument("--sigma", type=float, help="Gaussian kernel sigma in bins (default: the thesis' 1 for Z, 2 for T)")
+    ap.add_argument("--bandwidth", type=float, help="Epanechnikov bandwidth in bins (default: the thesis' 2 for Z, 3 for T)")
+    ap.add_argument("--hgrs-iterations", type=int, default=10, help="HGRS draws per vertex (default 10, as the thesis)")
+    ap.add_argument("--time-budget", type=float, help="seconds per technique at equal time (default: the baseline's time at --spp)")
+    ap.add_argument("--threads", type=int, help="worker threads (default: all cores)")
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--out", default="nlos_rs_evaluation", help="output folder (ground truth cached there)")
+    args = ap.parse_args(argv)
+    size, spp, gt_spp, sigma, bandwidth = DEFAULTS[args.scene]
+    args.size, args.spp, args.gt_spp = args.size or size, args.spp or spp, args.gt_spp or gt_spp
+    args.sigma, args.bandwidth = args.sigma or sigma, args.bandwidth or bandwidth
+    techniques = [t.strip() for t in args.techniques.split(",") if t.strip()]
+    unknown = set(techniques) - set(TECHNIQUES)
+    if unknown or "baseline" not in techniques:
+        ap.error(f"techniques must include 'baseline' and come from {TECHNIQUES}; got {techniques}")
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    scene = nlos_rs.load_dict(SCENES[args.scene](args.size))
+    bins, dt, t0 = scene.temporal
+    gt = ground_truth(scene, args, out)
+
+    def evaluate(name: str, n: int):
+        t, seconds = timed(scene, n, args.seed, args.threads, **options(name, args))
+        return t, {"technique": name, "spp": n, "time": seconds, "mse": metrics.mse(gt, t), "psnr": metrics.psnr(gt, t)}
+
+    timed(scene, 16, args.seed, args.threads)  # warm-up
+    equal_spp, curves = [], {}
+    for name in techniques:
+        t, row = evaluate(name, args.spp)
+        equal_spp.append(row)
+        curves[name] = t
+        print(f"equal spp  {name:15s} {row['spp']:>9,} spp {fmt_time(row['time']):>10s}  MSE {row['mse']:.3e}  PSNR {row['psnr']:.2f}", flush=True)
+    budget = args.time_budget or equal_spp[0]["time"]
+    equal_time = []
+    for row in equal_spp:
+        n = max(1, int(round(row["spp"] * budget / row["time"])))
+        _, r = evaluate(row["technique"], n)
+        equal_time.append(r)
+        print(f"equal time {r['technique']:15s} {r['spp']:>9,} spp {fmt_time(r['time']):>10s}  MSE {r['mse']:.3e}  PSNR {r['psnr']:.2f}", flush=True)
+    plots(out, gt, curves, equal_spp, t0, dt, "equal_spp")
+    plots(out, gt, {}, equal_time, t0, dt, "equal_time")
+    header = (f"### {args.scene}: {args.size}x{args.size} scan, {bins} bins x {dt} m from {t0} m; ground truth {args.gt_spp:,} spp "
+              f"(baseline); HGRS N = {args.hgrs_iterations}, Gaussian sigma = {args.sigma}, Epanechnikov b = {args.bandwidth} bins; "
+              f"nlos_rs {nlos_rs.__version__}, {args.threads or 'all'} threads")
+    md = "\n\n".join([header, table(equal_spp, "Equal samples per pixel"), table(equal_time, f"Equal time ({fmt_time(budget)} each)")])
+    (out / "results.md").write_text(md + "\n")
+    (out / "results.json").write_text(json.dumps({"args": vars(args), "equal_spp": equal_spp, "equal_time": equal_time}, indent=1))
+    print(f"\nwrote {out}/results.md, results.json and PNG plots")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
