@@ -2,9 +2,10 @@
 //! relay-wall point each pixel scans, where the laser spots are, and the spots' cached
 //! next-event estimate towards the laser. Prepared once per render.
 
+use crate::emitter::Projector;
 use crate::error::{NlosError, Result};
 use crate::geometry::{Interaction, shadow_segment};
-use crate::integrator::{CaptureType, HiddenGeometry, NlosSettings};
+use crate::integrator::{AreaSampler, CaptureType, NlosSettings};
 use crate::math::Spectrum;
 use crate::scene::Scene;
 use glam::{Vec2, Vec3A};
@@ -29,6 +30,8 @@ pub struct Capture<'a> {
     pub scene: &'a Scene,
     /// Its integrator settings.
     pub settings: &'a NlosSettings,
+    /// Its laser.
+    pub laser: &'a Projector,
     /// Reflectance of each BSDF.
     pub rho: Vec<Spectrum>,
     /// Laser irradiance (× scale).
@@ -38,7 +41,7 @@ pub struct Capture<'a> {
     /// Laser spots: one (single), one per pixel (confocal), one per laser grid point (exhaustive).
     pub spots: Vec<Spot>,
     /// Hidden-geometry distribution, if that sampling is on.
-    pub hidden: Option<HiddenGeometry>,
+    pub hidden: Option<AreaSampler>,
     /// Output channels (1 mono, 3 rgb).
     pub channels: usize,
 }
@@ -60,14 +63,15 @@ impl Spot {
 impl<'a> Capture<'a> {
     /// Prepare a render of `scene` in mono or rgb.
     pub fn new(scene: &'a Scene, mono: bool) -> Result<Self> {
-        let settings = &scene.integrator;
+        let nlos = scene.nlos()?;
+        let (settings, laser) = (&nlos.settings, &nlos.laser);
         let film = &scene.meter.film;
         let rho = scene
             .bsdfs
             .iter()
             .map(|b| b.reflectance.spectrum(mono))
             .collect();
-        let irradiance = scene.laser.irradiance.spectrum(mono);
+        let irradiance = laser.irradiance.spectrum(mono);
         let s = scene.meter.origin;
         // Scan points: pixel (x, y) looks at uv = ((x + ½)/W, (y + ½)/H) of the relay wall; the first
         // surface on the way is the path's first vertex x1 (exact pixel centres: spec §7 item 6).
@@ -78,7 +82,7 @@ impl<'a> Capture<'a> {
                     (x as f32 + 0.5) / film.width as f32,
                     (y as f32 + 0.5) / film.height as f32,
                 );
-                let (target, _) = scene.relay_wall_point(uv);
+                let (target, _) = scene.relay_wall_point(uv)?;
                 let d = (target - s).normalize_or_zero();
                 sensor_targets.push(if d == Vec3A::ZERO {
                     None
@@ -95,16 +99,25 @@ impl<'a> Capture<'a> {
             ));
         }
         let hidden = if settings.hidden_geometry_sampling {
-            Some(HiddenGeometry::new(
-                scene,
-                settings.hgs_includes_relay_wall,
-            )?)
+            // Every shape but the relay wall (unless included) is hidden geometry (spec §3.1).
+            let wall = nlos.relay_wall;
+            Some(
+                AreaSampler::new(scene, |s| settings.hgs_includes_relay_wall || s != wall)
+                    .ok_or_else(|| {
+                        NlosError::prop(
+                            "transient_nlos_path",
+                            "nlos_hidden_geometry_sampling",
+                            "the scene has no hidden geometry to sample (zero total area)",
+                        )
+                    })?,
+            )
         } else {
             None
         };
         let mut cap = Self {
             scene,
             settings,
+            laser,
             rho,
             irradiance,
             sensor_targets,
@@ -120,7 +133,7 @@ impl<'a> Capture<'a> {
 
     fn laser_spots(&self) -> Result<Vec<Spot>> {
         let (scene, film) = (self.scene, &self.scene.meter.film);
-        let laser = &scene.laser;
+        let laser = self.laser;
         let from_laser = |d: Vec3A| {
             scene
                 .intersect(laser.origin, d.normalize(), f32::INFINITY)
@@ -171,7 +184,7 @@ impl<'a> Capture<'a> {
 
     /// The NEE from a spot to the laser (spec §3.5), cached.
     fn spot(&self, it: Interaction, focused: bool) -> Spot {
-        let laser = &self.scene.laser;
+        let laser = self.laser;
         let w = laser.origin - it.p;
         let dist = w.length();
         let cos = it.ns.dot(w / dist);

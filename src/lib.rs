@@ -5,13 +5,16 @@
 //! returns the same arrays, with mitransient's defects corrected.
 //!
 //! Module map: [`props`] (scene description trees) → [`xml`] / dicts → [`scene`] (shapes, laser,
-//! capture meter) over [`geometry`] (primitives, BVH); [`capture`] (scan points, laser spots),
+//! capture meter, camera) over [`geometry`] (primitives, BVH); [`emitter`] (laser, lights),
+//! [`camera`] (perspective), [`capture`] (NLOS scan points, laser spots),
 //! [`integrator`] (path sampling), [`film`] (time binning), [`render`] (parallel loop);
 //! [`sampling`] and [`math`] underneath. `python` holds the PyO3 binding, nothing else.
 
 #![warn(missing_docs)]
 
+pub mod camera;
 pub mod capture;
+pub mod emitter;
 pub mod error;
 pub mod film;
 pub mod geometry;

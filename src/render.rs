@@ -5,8 +5,10 @@
 
 use crate::capture::Capture;
 use crate::error::{NlosError, Result};
+use crate::integrator::path::PathTracer;
 use crate::sampling::Sampler;
 use crate::scene::Scene;
+use crate::scene::Setup;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 
@@ -50,6 +52,12 @@ pub struct Monitor {
     pub cancel: AtomicBool,
 }
 
+/// The path sampler of a scene's setup.
+enum Tracer<'a> {
+    Nlos(Capture<'a>),
+    Los(PathTracer<'a>),
+}
+
 /// Total samples a render will take (for progress bars).
 pub fn total_samples(scene: &Scene, opts: &RenderOptions) -> u64 {
     let f = &scene.meter.film;
@@ -68,8 +76,17 @@ pub fn render(scene: &Scene, opts: &RenderOptions, monitor: &Monitor) -> Result<
         film.kernel = k;
     }
     let film = &film;
-    let cap = Capture::new(scene, opts.mono)?;
-    let c = cap.channels;
+    let tracer = match &scene.setup {
+        Setup::Nlos(_) => Tracer::Nlos(Capture::new(scene, opts.mono)?),
+        Setup::Los(los) => Tracer::Los(PathTracer::new(
+            scene,
+            &los.settings,
+            &los.camera,
+            &los.lights,
+            opts.mono,
+        )?),
+    };
+    let c = if opts.mono { 1 } else { 3 };
     let (t, slots) = (film.temporal_bins, film.laser_slots());
     let pixel_len = slots * t * c;
     let npix = film.width * film.height;
@@ -103,7 +120,12 @@ pub fn render(scene: &Scene, opts: &RenderOptions, monitor: &Monitor) -> Result<
                     let n = BLOCK.min(spp - start);
                     let mut rng = Sampler::new(seed, pixel as u64, start / BLOCK);
                     for _ in 0..n {
-                        cap.trace(pixel, &mut rng, &mut splat);
+                        match &tracer {
+                            Tracer::Nlos(cap) => cap.trace(pixel, &mut rng, &mut splat),
+                            Tracer::Los(pt) => {
+                                pt.trace(pixel, film.width, film.height, &mut rng, &mut splat)
+                            }
+                        }
                     }
                     monitor.done.fetch_add(n, Ordering::Relaxed);
                     start += n;

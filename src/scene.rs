@@ -2,13 +2,15 @@
 //! `nlos_capture_meter`, one `projector` laser, hidden shapes with `diffuse` BSDFs, and the
 //! `transient_nlos_path` integrator settings. Built from a [`Props`] tree (dict or XML).
 
+use crate::camera::Camera;
+use crate::emitter::{Light, Projector};
 use crate::error::{NlosError, Result};
 use crate::film::Film;
 use crate::geometry::{Hit, Interaction, Prim, bvh::Accel, mesh::Mesh};
-use crate::integrator::NlosSettings;
+use crate::integrator::{NlosSettings, PathSettings};
 use crate::math::{Transform, look_at};
 use crate::props::{Colour, Props, Value};
-use glam::{DMat4, Vec2, Vec3A};
+use glam::{Vec2, Vec3A};
 use std::collections::HashMap;
 use std::path::Path;
 
@@ -36,113 +38,6 @@ pub struct Shape {
     pub rectangle: Option<Transform>,
 }
 
-/// Mitsuba's `projector` emitter, used as the NLOS laser (mitransient-nlos-spec §1.3).
-#[derive(Clone, Debug)]
-pub struct Projector {
-    /// `to_world` as given (origin = laser position, local +z = aiming direction).
-    pub to_world: DMat4,
-    /// Laser origin o_L.
-    pub origin: Vec3A,
-    /// Unit frame of the projector: local x, y and the optical axis z.
-    pub axes: [Vec3A; 3],
-    /// tan of the half field of view along local x and y.
-    pub tan_half_fov: [f32; 2],
-    /// Irradiance E (times `scale`).
-    pub irradiance: Colour,
-}
-
-impl Projector {
-    fn from_props(p: &Props) -> Result<Self> {
-        if p.plugin != "projector" {
-            return Err(NlosError::Scene(format!(
-                "emitter '{}' is not supported in NLOS scenes: the laser must be a 'projector'",
-                p.plugin
-            )));
-        }
-        let irr = p.colour("irradiance", Colour::Uniform(1.0))?;
-        let scale = p.float("scale", 1.0)?;
-        if !(scale >= 0.0) {
-            return Err(NlosError::prop(
-                "projector",
-                "scale",
-                "must be non-negative",
-            ));
-        }
-        let irradiance = match irr {
-            Colour::Uniform(v) => Colour::Uniform(v * scale),
-            Colour::Rgb(c) => Colour::Rgb(c.map(|v| v * scale)),
-        };
-        let fov = p.float("fov", 30.0)?;
-        if !(fov > 0.0 && fov < 180.0) {
-            return Err(NlosError::prop(
-                "projector",
-                "fov",
-                format!("must be in (0, 180) degrees, got {fov}"),
-            ));
-        }
-        // A constant irradiance has aspect 1, so x, y, smaller and larger agree.
-        let axis = p.string("fov_axis", "x")?;
-        let t = (fov.to_radians() / 2.0).tan();
-        let t = match axis.as_str() {
-            "x" | "y" | "smaller" | "larger" => t,
-            "diagonal" => t / 2f64.sqrt(),
-            _ => {
-                return Err(NlosError::prop(
-                    "projector",
-                    "fov_axis",
-                    format!("unknown value '{axis}'"),
-                ));
-            }
-        } as f32;
-        let to_world = p.matrix("to_world")?;
-        p.finish()?;
-        let mut proj = Self {
-            to_world,
-            origin: Vec3A::ZERO,
-            axes: [Vec3A::X, Vec3A::Y, Vec3A::Z],
-            tan_half_fov: [t, t],
-            irradiance,
-        };
-        proj.set_to_world(to_world)
-            .map_err(|m| NlosError::prop("projector", "to_world", m))?;
-        Ok(proj)
-    }
-
-    /// Re-aim the laser (as `mitr.nlos.focus_emitter_at_*` do).
-    pub fn set_to_world(&mut self, m: DMat4) -> std::result::Result<(), String> {
-        let t = Transform::from_dmat4(m).ok_or("must be an invertible affine 4x4 matrix")?;
-        let axes = [Vec3A::X, Vec3A::Y, Vec3A::Z].map(|a| t.vector(a).normalize_or_zero());
-        if axes.iter().any(|a| *a == Vec3A::ZERO) {
-            return Err("has a degenerate axis".into());
-        }
-        self.to_world = m;
-        self.origin = t.point(Vec3A::ZERO);
-        self.axes = axes;
-        Ok(())
-    }
-
-    /// The projector's weight towards a world point p (Mitsuba `projector::sample_direction`):
-    /// π·E/(z_l²·cos_e) inside the frustum, else zero; z_l is p's depth along the axis.
-    pub fn weight_at(&self, p: Vec3A) -> f32 {
-        let v = p - self.origin;
-        let zl = v.dot(self.axes[2]);
-        if zl <= 0.0 {
-            return 0.0;
-        }
-        let (xl, yl) = (v.dot(self.axes[0]) / zl, v.dot(self.axes[1]) / zl);
-        if xl.abs() > self.tan_half_fov[0] || yl.abs() > self.tan_half_fov[1] {
-            return 0.0;
-        }
-        let cos_e = zl / v.length();
-        std::f32::consts::PI / (zl * zl * cos_e)
-    }
-
-    /// The weight of a projector virtually re-aimed at p (confocal / exhaustive focusing, §3.5).
-    pub fn focused_weight_at(&self, p: Vec3A) -> f32 {
-        std::f32::consts::PI / (p - self.origin).length_squared()
-    }
-}
-
 /// `nlos_capture_meter`: where the SPAD sits and how many samples it takes.
 #[derive(Clone, Debug)]
 pub struct Meter {
@@ -159,13 +54,14 @@ pub struct Meter {
 }
 
 impl Meter {
+    /// An `nlos_capture_meter` (nested in the relay wall).
     fn from_props(p: &Props) -> Result<Self> {
-        let origin = p.vec3("sensor_origin", [0.0; 3])?;
-        let mut warnings = Vec::new();
+        let o = p.vec3("sensor_origin", [0.0; 3])?;
+        let mut meter = Self::from_sensor(p, Vec3A::new(o[0] as f32, o[1] as f32, o[2] as f32))?;
         if p.has("account_first_and_last_bounces") {
             // tal still writes it here; mitransient 1.3.1 warns and ignores it, and so do we.
             p.bool("account_first_and_last_bounces", false)?;
-            warnings.push(
+            meter.warnings.push(
                 "nlos_capture_meter: 'account_first_and_last_bounces' is deprecated and ignored here; set it on the transient_nlos_path integrator".to_string(),
             );
         }
@@ -173,6 +69,13 @@ impl Meter {
             // mitransient adds shutter_open (seconds) to the optical path (metres): a defect we do not copy.
             p.float(key, 0.0)?;
         }
+        p.finish()?;
+        Ok(meter)
+    }
+
+    /// The sampler and film nested in any sensor; the caller reads its other keys and finishes `p`.
+    pub fn from_sensor(p: &Props, origin: Vec3A) -> Result<Self> {
+        let plugin = p.plugin.as_str();
         let (mut spp, mut seed, mut film) = (4, 0, None);
         for (key, v) in p.objects() {
             match v {
@@ -188,7 +91,7 @@ impl Meter {
                     ) =>
                 {
                     return Err(NlosError::prop(
-                        "nlos_capture_meter",
+                        plugin,
                         &key,
                         format!("sampler '{}' is not supported: use 'independent'", s.plugin),
                     ));
@@ -198,30 +101,55 @@ impl Meter {
                 }
                 _ => {
                     return Err(NlosError::prop(
-                        "nlos_capture_meter",
+                        plugin,
                         &key,
                         "unexpected nested object (a sampler and a film)",
                     ));
                 }
             }
         }
-        p.finish()?;
-        let film = film.ok_or_else(|| {
-            NlosError::prop(
-                "nlos_capture_meter",
-                "film",
-                "missing (a 'transient_hdr_film')",
-            )
-        })?;
-        let o = Vec3A::new(origin[0] as f32, origin[1] as f32, origin[2] as f32);
+        let film = film
+            .ok_or_else(|| NlosError::prop(plugin, "film", "missing (a 'transient_hdr_film')"))?;
         Ok(Self {
-            origin: o,
+            origin,
             spp,
             seed,
             film,
-            warnings,
+            warnings: Vec::new(),
         })
     }
+}
+
+/// What a scene measures.
+#[derive(Clone)]
+pub enum Setup {
+    /// An NLOS capture: relay wall with an `nlos_capture_meter`, a `projector` laser,
+    /// `transient_nlos_path(_rs)`.
+    Nlos(Nlos),
+    /// A line-of-sight render: `perspective` camera, `area`/`point` lights, `transient_path`.
+    Los(Los),
+}
+
+/// The NLOS part of a scene.
+#[derive(Clone)]
+pub struct Nlos {
+    /// Index of the relay wall (the shape owning the capture meter).
+    pub relay_wall: usize,
+    /// The laser.
+    pub laser: Projector,
+    /// Integrator settings.
+    pub settings: NlosSettings,
+}
+
+/// The line-of-sight part of a scene.
+#[derive(Clone)]
+pub struct Los {
+    /// The camera.
+    pub camera: Camera,
+    /// The lights.
+    pub lights: Vec<Light>,
+    /// Integrator settings.
+    pub settings: PathSettings,
 }
 
 /// A loaded NLOS scene.
@@ -241,14 +169,10 @@ pub struct Scene {
     pub shape_flip: Vec<bool>,
     /// BVH over `prims`.
     pub accel: std::sync::Arc<Accel>,
-    /// Index of the relay wall (the shape owning the capture meter).
-    pub relay_wall: usize,
-    /// The laser.
-    pub laser: Projector,
-    /// The sensor.
+    /// Samples, seed and film of the sensor (capture meter or camera).
     pub meter: Meter,
-    /// Integrator settings.
-    pub integrator: NlosSettings,
+    /// NLOS capture or line-of-sight camera.
+    pub setup: Setup,
 }
 
 const SHAPES: [&str; 6] = ["obj", "ply", "rectangle", "disk", "cube", "sphere"];
@@ -263,6 +187,7 @@ struct Builder<'a> {
     prim_normals: Vec<Option<[Vec3A; 3]>>,
     shape_flip: Vec<bool>,
     meter: Option<(usize, Meter)>,
+    lights: Vec<Light>,
 }
 
 fn bsdf_from_props(p: &Props) -> Result<Diffuse> {
@@ -307,11 +232,7 @@ impl Builder<'_> {
                     self.meter = Some((shape_idx, Meter::from_props(&c)?));
                 }
                 Value::Object(c) if c.plugin == "area" => {
-                    return Err(NlosError::prop(
-                        plugin,
-                        &child_key,
-                        "area emitters are not supported in NLOS scenes (the laser is a 'projector')",
-                    ));
+                    self.lights.push(Light::area_from_props(&c, shape_idx)?)
                 }
                 Value::Object(c) => {
                     // Anything else nested in a shape is its BSDF; non-diffuse ones are rejected there.
@@ -437,7 +358,32 @@ impl Builder<'_> {
     }
 }
 
+/// The integrator's `temporal_filter='gaussian'` sets the film's kernel, unless the film has one.
+fn apply_kernel(mut meter: Meter, kernel: Option<crate::film::TemporalKernel>) -> Result<Meter> {
+    if let Some(k) = kernel {
+        if meter.film.kernel != crate::film::TemporalKernel::Box {
+            return Err(NlosError::prop(
+                "transient_hdr_film",
+                "kernel_sigma",
+                "the integrator's temporal_filter='gaussian' already sets a temporal kernel",
+            ));
+        }
+        meter.film.kernel = k;
+    }
+    Ok(meter)
+}
+
 impl Scene {
+    /// The NLOS part, or an error naming what the caller wanted.
+    pub fn nlos(&self) -> Result<&Nlos> {
+        match &self.setup {
+            Setup::Nlos(n) => Ok(n),
+            Setup::Los(_) => Err(NlosError::Scene(
+                "this is a line-of-sight (transient_path) scene, not an NLOS capture".into(),
+            )),
+        }
+    }
+
     /// Build from a `scene` property tree; relative mesh paths resolve against `base_dir`.
     pub fn from_props(root: &Props, base_dir: &Path) -> Result<Self> {
         if root.plugin != "scene" {
@@ -456,8 +402,10 @@ impl Scene {
             prim_normals: Vec::new(),
             shape_flip: Vec::new(),
             meter: None,
+            lights: Vec::new(),
         };
-        let (mut integrator, mut lasers) = (None, Vec::new());
+        let (mut nlos_settings, mut path_settings, mut lasers, mut cameras) =
+            (None, None, Vec::new(), Vec::new());
         let children = root.objects();
         // BSDFs first, so that references resolve whatever the declaration order.
         for (key, v) in &children {
@@ -471,6 +419,7 @@ impl Scene {
                 }
             }
         }
+        let mut integrators = 0;
         for (key, v) in &children {
             let Value::Object(p) = v else {
                 return Err(NlosError::prop(
@@ -483,14 +432,16 @@ impl Scene {
                 "diffuse" => {}
                 s if SHAPES.contains(&s) => b.add_shape(key, p)?,
                 "transient_nlos_path" | "transient_nlos_path_rs" => {
-                    if integrator.is_some() {
-                        return Err(NlosError::prop("scene", key, "a second integrator"));
-                    }
-                    integrator = Some(NlosSettings::from_props(p)?);
+                    integrators += 1;
+                    nlos_settings = Some(NlosSettings::from_props(p)?);
                 }
-                "projector" | "point" | "area" | "spot" | "constant" | "envmap" | "directional" => {
-                    lasers.push(Projector::from_props(p)?)
+                "transient_path" => {
+                    integrators += 1;
+                    path_settings = Some(PathSettings::from_props(p)?);
                 }
+                "projector" => lasers.push(Projector::from_props(p)?),
+                "point" => b.lights.push(Light::point_from_props(p)?),
+                "perspective" => cameras.push(Camera::from_props(p)?),
                 "nlos_capture_meter" => {
                     return Err(NlosError::prop(
                         "scene",
@@ -498,12 +449,32 @@ impl Scene {
                         "the nlos_capture_meter must be nested inside the relay-wall shape",
                     ));
                 }
-                "transient_path" | "path" | "direct" => {
+                "spot" | "constant" | "envmap" | "directional" | "area" => {
                     return Err(NlosError::prop(
                         "scene",
                         key,
                         format!(
-                            "integrator '{}' is not supported for NLOS scenes (use 'transient_nlos_path')",
+                            "emitter '{}' is not supported (projector for NLOS; area lights nested in shapes and point lights for transient_path)",
+                            p.plugin
+                        ),
+                    ));
+                }
+                "path" | "direct" | "volpath" | "prb" | "transient_prbvolpath" => {
+                    return Err(NlosError::prop(
+                        "scene",
+                        key,
+                        format!(
+                            "integrator '{}' is not supported (use 'transient_path' or 'transient_nlos_path')",
+                            p.plugin
+                        ),
+                    ));
+                }
+                "thinlens" | "orthographic" | "irradiancemeter" | "radiancemeter" => {
+                    return Err(NlosError::prop(
+                        "scene",
+                        key,
+                        format!(
+                            "sensor '{}' is not supported (use 'perspective', or an nlos_capture_meter in the relay wall)",
                             p.plugin
                         ),
                     ));
@@ -518,38 +489,69 @@ impl Scene {
             }
         }
         root.finish()?;
-        let integrator = integrator.ok_or_else(|| {
-            NlosError::Scene(
-                "the scene has no integrator (add {'type': 'transient_nlos_path'})".into(),
+        if integrators != 1 {
+            return Err(NlosError::Scene(format!(
+                "the scene needs exactly one integrator ('transient_nlos_path', 'transient_nlos_path_rs' or 'transient_path'); found {integrators}"
+            )));
+        }
+        let (mut meter, setup) = if let Some(settings) = nlos_settings {
+            if lasers.len() != 1 || !b.lights.is_empty() {
+                return Err(NlosError::Scene(format!(
+                    "an NLOS scene needs exactly one emitter, the projector laser; found {} projector(s) and {} other light(s)",
+                    lasers.len(),
+                    b.lights.len()
+                )));
+            }
+            if !cameras.is_empty() {
+                return Err(NlosError::Scene("an NLOS scene measures with the relay wall's nlos_capture_meter, not a perspective camera".into()));
+            }
+            let (relay_wall, meter) = b.meter.take().ok_or_else(|| {
+                NlosError::Scene("no shape owns an nlos_capture_meter (the relay wall)".into())
+            })?;
+            if b.shapes[relay_wall].rectangle.is_none() {
+                return Err(NlosError::Scene(format!(
+                    "the relay wall must be a 'rectangle' (got '{}'): the scan grid is defined on its parametrisation",
+                    b.shapes[relay_wall].plugin
+                )));
+            }
+            settings.check(&meter.film)?;
+            let kernel = settings.temporal_kernel;
+            let laser = lasers.pop().unwrap_or_else(|| unreachable!());
+            (
+                apply_kernel(meter, kernel)?,
+                Setup::Nlos(Nlos {
+                    relay_wall,
+                    laser,
+                    settings,
+                }),
             )
-        })?;
-        if lasers.len() != 1 {
-            return Err(NlosError::Scene(format!(
-                "an NLOS scene needs exactly one emitter (the projector laser); found {}",
-                lasers.len()
-            )));
-        }
-        let (relay_wall, meter) = b.meter.ok_or_else(|| {
-            NlosError::Scene("no shape owns an nlos_capture_meter (the relay wall)".into())
-        })?;
-        if b.shapes[relay_wall].rectangle.is_none() {
-            return Err(NlosError::Scene(format!(
-                "the relay wall must be a 'rectangle' (got '{}'): the scan grid is defined on its parametrisation",
-                b.shapes[relay_wall].plugin
-            )));
-        }
-        let mut meter = meter;
-        if let Some(k) = integrator.temporal_kernel {
-            if meter.film.kernel != crate::film::TemporalKernel::Box {
+        } else {
+            let settings = path_settings.unwrap_or_else(|| unreachable!());
+            if cameras.len() != 1 || b.meter.is_some() {
+                return Err(NlosError::Scene("transient_path needs exactly one 'perspective' sensor (and no nlos_capture_meter)".into()));
+            }
+            if b.lights.is_empty() || !lasers.is_empty() {
+                return Err(NlosError::Scene("transient_path needs area or point lights (a projector laser is for NLOS scenes)".into()));
+            }
+            let (camera, meter) = cameras.pop().unwrap_or_else(|| unreachable!());
+            if meter.film.laser_scan.is_some() {
                 return Err(NlosError::prop(
                     "transient_hdr_film",
-                    "kernel_sigma",
-                    "the integrator's temporal_filter='gaussian' already sets a temporal kernel",
+                    "exhaustive_scan",
+                    "is for NLOS captures only",
                 ));
             }
-            meter.film.kernel = k;
-        }
-        integrator.check(&meter.film)?;
+            let kernel = settings.temporal_kernel;
+            (
+                apply_kernel(meter, kernel)?,
+                Setup::Los(Los {
+                    camera,
+                    lights: std::mem::take(&mut b.lights),
+                    settings,
+                }),
+            )
+        };
+        meter.warnings.shrink_to_fit();
         let accel = std::sync::Arc::new(Accel::build(&b.prims));
         Ok(Self {
             shapes: b.shapes,
@@ -559,10 +561,8 @@ impl Scene {
             prim_normals: b.prim_normals,
             shape_flip: b.shape_flip,
             accel,
-            relay_wall,
-            laser: lasers.pop().unwrap_or_else(|| unreachable!()),
             meter,
-            integrator,
+            setup,
         })
     }
 
@@ -601,22 +601,22 @@ impl Scene {
     }
 
     /// The relay-wall point of a uv in [0, 1]² (`rectangle.sample_position`: to_world·(2u−1, 2v−1, 0)).
-    pub fn relay_wall_point(&self, uv: Vec2) -> (Vec3A, Vec3A) {
-        let t = self.shapes[self.relay_wall]
-            .rectangle
-            .unwrap_or(Transform::IDENTITY);
+    pub fn relay_wall_point(&self, uv: Vec2) -> Result<(Vec3A, Vec3A)> {
+        let wall = self.nlos()?.relay_wall;
+        let t = self.shapes[wall].rectangle.unwrap_or(Transform::IDENTITY);
         let p = t.point(Vec3A::new(2.0 * uv.x - 1.0, 2.0 * uv.y - 1.0, 0.0));
-        let s = if self.shape_flip[self.relay_wall] {
-            -1.0
-        } else {
-            1.0
-        };
-        (p, t.normal(Vec3A::Z) * s)
+        let s = if self.shape_flip[wall] { -1.0 } else { 1.0 };
+        Ok((p, t.normal(Vec3A::Z) * s))
     }
 
     /// Aim the laser at a 3D point from its current origin (`mitr.nlos.focus_emitter_at_relay_wall_3dpoint`).
     pub fn focus_laser_at(&mut self, target: Vec3A) -> Result<()> {
-        let o = self.laser.origin.as_dvec3().to_array();
+        let Setup::Nlos(nlos) = &mut self.setup else {
+            return Err(NlosError::Scene(
+                "this is a line-of-sight scene: it has no laser to aim".into(),
+            ));
+        };
+        let o = nlos.laser.origin.as_dvec3().to_array();
         let m = look_at(o, target.as_dvec3().to_array(), [0.0, 1.0, 0.0]).ok_or_else(|| {
             NlosError::prop(
                 "projector",
@@ -624,7 +624,7 @@ impl Scene {
                 "cannot aim the laser at its own origin",
             )
         })?;
-        self.laser
+        nlos.laser
             .set_to_world(m)
             .map_err(|e| NlosError::prop("projector", "to_world", e))
     }

@@ -1,7 +1,7 @@
 //! Scene building, hidden-geometry sampling against its density, and render invariants.
 
 use glam::{DMat4, DVec3, Vec2};
-use nlos_rs::integrator::HiddenGeometry;
+use nlos_rs::integrator::AreaSampler;
 use nlos_rs::props::{Props, Value};
 use nlos_rs::render::{Monitor, RenderOptions, render};
 use nlos_rs::sampling::Sampler;
@@ -81,7 +81,8 @@ fn load(p: &Props) -> Scene {
 #[test]
 fn hidden_geometry_sampling_is_uniform_by_area() {
     let scene = load(&scene_props(vec![], vec![]));
-    let hg = HiddenGeometry::new(&scene, false).expect("hidden geometry");
+    let wall = scene.nlos().expect("an NLOS scene").relay_wall;
+    let hg = AreaSampler::new(&scene, |s| s != wall).expect("hidden geometry");
     assert!(
         (hg.total_area() - 0.8).abs() < 1e-5,
         "area {}",
@@ -235,6 +236,8 @@ fn exhaustive_layout_and_uv() {
     assert_eq!(r.transient_shape, vec![4, 4, 4, 4, 400, 1]);
     assert_eq!(r.steady_shape, vec![4, 4, 1]);
     // Pixel (x, y) scans local (2(x+½)/W − 1, 2(y+½)/H − 1, 0): pixel (3, 0) is at (+0.75, −0.75).
-    let (p, n) = scene.relay_wall_point(Vec2::new(3.5 / 4.0, 0.5 / 4.0));
+    let (p, n) = scene
+        .relay_wall_point(Vec2::new(3.5 / 4.0, 0.5 / 4.0))
+        .expect("relay wall");
     assert!((p.x - 0.75).abs() < 1e-6 && (p.y + 0.75).abs() < 1e-6 && (n.z - 1.0).abs() < 1e-6);
 }

@@ -223,7 +223,9 @@ impl PyScene {
     /// Capture type: 'single', 'confocal' or 'exhaustive'.
     #[getter]
     fn capture_type(&self) -> &'static str {
-        match self.get().integrator.capture_type {
+        let s = self.get();
+        let Ok(n) = s.nlos() else { return "camera" };
+        match n.settings.capture_type {
             crate::integrator::CaptureType::Single => "single",
             crate::integrator::CaptureType::Confocal => "confocal",
             crate::integrator::CaptureType::Exhaustive => "exhaustive",
@@ -237,7 +239,9 @@ impl PyScene {
     /// Whether the optical path includes the sensor and laser legs.
     #[getter]
     fn account_first_and_last_bounces(&self) -> bool {
-        self.get().integrator.account_first_and_last_bounces
+        self.get()
+            .nlos()
+            .is_ok_and(|n| n.settings.account_first_and_last_bounces)
     }
     /// Sensor origin.
     #[getter]
@@ -246,14 +250,13 @@ impl PyScene {
     }
     /// Laser origin.
     #[getter]
-    fn laser_origin(&self) -> [f32; 3] {
-        self.get().laser.origin.to_array()
+    fn laser_origin(&self) -> PyResult<[f32; 3]> {
+        Ok(self.get().nlos()?.laser.origin.to_array())
     }
     /// The laser's to_world as a nested list (row-major).
     #[getter]
-    fn laser_to_world(&self) -> Vec<Vec<f64>> {
-        let m = self.get().laser.to_world.transpose().to_cols_array_2d();
-        m.iter().map(|r| r.to_vec()).collect()
+    fn laser_to_world(&self) -> PyResult<Vec<Vec<f64>>> {
+        Ok(rows(self.get().nlos()?.laser.to_world))
     }
     /// Ids of the shapes, in order; the relay wall's index.
     #[getter]
@@ -261,16 +264,16 @@ impl PyScene {
         self.get().shapes.iter().map(|s| s.id.clone()).collect()
     }
     #[getter]
-    fn relay_wall_index(&self) -> usize {
-        self.get().relay_wall
+    fn relay_wall_index(&self) -> PyResult<usize> {
+        Ok(self.get().nlos()?.relay_wall)
     }
     /// The integrator's name.
     #[getter]
     fn integrator(&self) -> &'static str {
-        if self.get().integrator.hgrs.is_some() {
-            "transient_nlos_path_rs"
-        } else {
-            "transient_nlos_path"
+        match &self.get().setup {
+            crate::scene::Setup::Los(_) => "transient_path",
+            crate::scene::Setup::Nlos(n) if n.settings.hgrs.is_some() => "transient_nlos_path_rs",
+            crate::scene::Setup::Nlos(_) => "transient_nlos_path",
         }
     }
     /// The film's temporal kernel: ('box', 0), ('gaussian', sigma) or ('epanechnikov', b), in bins.
@@ -292,8 +295,13 @@ impl PyScene {
         hgrs_estimator: Option<&str>,
     ) -> PyResult<PyScene> {
         let mut s = (*self.get()).clone();
-        s.integrator = s
-            .integrator
+        let crate::scene::Setup::Nlos(n) = &mut s.setup else {
+            return Err(SceneError::new_err(
+                "integrator switching is for NLOS scenes (transient_nlos_path / _rs)",
+            ));
+        };
+        n.settings = n
+            .settings
             .switched(name, hgrs_max_iterations, hgrs_estimator)?;
         Ok(PyScene::wrap(s))
     }
@@ -320,9 +328,9 @@ impl PyScene {
             .collect())
     }
     /// Relay-wall point and normal at uv ∈ [0, 1]² (`rectangle.sample_position`).
-    fn relay_wall_point(&self, u: f32, v: f32) -> ([f32; 3], [f32; 3]) {
-        let (p, n) = self.get().relay_wall_point(Vec2::new(u, v));
-        (p.to_array(), n.to_array())
+    fn relay_wall_point(&self, u: f32, v: f32) -> PyResult<([f32; 3], [f32; 3])> {
+        let (p, n) = self.get().relay_wall_point(Vec2::new(u, v))?;
+        Ok((p.to_array(), n.to_array()))
     }
     /// Aim the laser at a world point from its current origin.
     fn focus_laser_at(&self, x: f32, y: f32, z: f32) -> PyResult<()> {

@@ -6,19 +6,15 @@
 //! hidden-geometry sampling tests visibility, the 50/50 technique choice does not double the
 //! estimate, and the capture's time origin ignores the shutter. See docs/compatibility.md.
 
+use super::{AreaSampler, Splat, diffuse_f};
 use crate::capture::{Capture, Spot};
 use crate::error::{NlosError, Result};
 use crate::film::{Film, TemporalKernel};
-use crate::geometry::{Interaction, Prim, shadow_segment};
+use crate::geometry::{Interaction, shadow_segment};
 use crate::math::{COS_EPS, Frame, Spectrum};
 use crate::props::Props;
-use crate::sampling::{
-    Discrete, Sampler, square_to_cosine_hemisphere, square_to_uniform_disk_concentric,
-    square_to_uniform_sphere, square_to_uniform_triangle,
-};
-use crate::scene::Scene;
-use glam::{Vec2, Vec3A};
-use std::f32::consts::FRAC_1_PI;
+use crate::sampling::{Sampler, square_to_cosine_hemisphere};
+use glam::Vec3A;
 
 /// Which points of the relay wall the laser illuminates (spec §5).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -347,82 +343,6 @@ impl NlosSettings {
     }
 }
 
-/// Distribution over hidden-geometry primitives by area (spec §3.3): p_A = 1 / A_total.
-pub struct HiddenGeometry {
-    dist: Discrete,
-    prims: Vec<u32>,
-}
-
-impl HiddenGeometry {
-    /// Over every shape, the relay wall included only if asked.
-    pub fn new(scene: &Scene, include_relay_wall: bool) -> Result<Self> {
-        let prims: Vec<u32> = (0..scene.prims.len() as u32)
-            .filter(|&i| {
-                include_relay_wall || scene.prim_shape[i as usize] as usize != scene.relay_wall
-            })
-            .collect();
-        let weights: Vec<f64> = prims
-            .iter()
-            .map(|&i| scene.prims[i as usize].area() as f64)
-            .collect();
-        let dist = Discrete::new(&weights).ok_or_else(|| {
-            NlosError::prop(
-                "transient_nlos_path",
-                "nlos_hidden_geometry_sampling",
-                "the scene has no hidden geometry to sample (zero total area)",
-            )
-        })?;
-        Ok(Self { dist, prims })
-    }
-
-    /// Total sampled area A_total.
-    pub fn total_area(&self) -> f32 {
-        self.dist.total() as f32
-    }
-
-    /// A uniformly distributed point on the hidden geometry (density 1/A_total in area).
-    pub fn sample(&self, scene: &Scene, u1: f32, u2: Vec2) -> Interaction {
-        let (k, _) = self.dist.sample_reuse(u1);
-        let i = self.prims[k] as usize;
-        let (p, ng, b) = match scene.prims[i] {
-            Prim::Triangle(v) => {
-                let b = square_to_uniform_triangle(u2);
-                let p = v[0] * (1.0 - b.x - b.y) + v[1] * b.x + v[2] * b.y;
-                (
-                    p,
-                    (v[1] - v[0]).cross(v[2] - v[0]).normalize(),
-                    b.to_array(),
-                )
-            }
-            Prim::Sphere { center, radius } => {
-                let n = square_to_uniform_sphere(u2);
-                (center + n * radius, n, [0.0; 2])
-            }
-            Prim::Disk { inv } => {
-                let q = square_to_uniform_disk_concentric(u2);
-                let p = inv.inverse().transform_point3a(Vec3A::new(q.x, q.y, 0.0));
-                (
-                    p,
-                    inv.matrix3.transpose().mul_vec3a(Vec3A::Z).normalize(),
-                    [0.0; 2],
-                )
-            }
-        };
-        scene.surface_point(i, p, ng, b)
-    }
-}
-
-/// Lambertian BSDF with cosine: ρ/π · cosθ_o, zero unless both directions are above the shading
-/// surface (Mitsuba's one-sided `diffuse`).
-#[inline]
-fn diffuse_f(rho: Spectrum, ns: Vec3A, wi: Vec3A, wo: Vec3A) -> Option<Spectrum> {
-    let (ci, co) = (ns.dot(wi), ns.dot(wo));
-    (ci > 0.0 && co > 0.0).then(|| rho * (FRAC_1_PI * co))
-}
-
-/// A contribution: laser slot, optical path length, value.
-pub type Splat = (usize, f64, Spectrum);
-
 impl Capture<'_> {
     /// Laser sampling (spec §3.4 + §3.5): connect vertex `x` (incoming direction `wi`, throughput
     /// `beta`, path length `opl`) to the laser spot, whose NEE to the laser is cached in `spot`.
@@ -474,11 +394,11 @@ impl Capture<'_> {
         opl: f64,
         out: &mut impl FnMut(Splat),
     ) {
-        let weight = self.scene.laser.weight_at(x.p);
+        let weight = self.laser.weight_at(x.p);
         if weight == 0.0 {
             return;
         }
-        let u = self.scene.laser.origin - x.p;
+        let u = self.laser.origin - x.p;
         let r = u.length();
         let Some(f) = diffuse_f(
             self.rho[self.scene.shapes[x.shape as usize].bsdf],
@@ -488,7 +408,7 @@ impl Capture<'_> {
         ) else {
             return;
         };
-        let (o, d, tmax) = shadow_segment(x, self.scene.laser.origin);
+        let (o, d, tmax) = shadow_segment(x, self.laser.origin);
         if !self.scene.accel.unoccluded(o, d, 0.0, tmax) {
             return;
         }
@@ -506,7 +426,7 @@ impl Capture<'_> {
     #[inline]
     fn hidden_candidate(
         &self,
-        hg: &HiddenGeometry,
+        hg: &AreaSampler,
         x: &Interaction,
         wi: Vec3A,
         rho: Spectrum,
@@ -532,7 +452,7 @@ impl Capture<'_> {
     /// Hidden-geometry sampling, plain (one draw) or with rejection (thesis §3.1, HGRS).
     fn sample_hidden(
         &self,
-        hg: &HiddenGeometry,
+        hg: &AreaSampler,
         x: &Interaction,
         wi: Vec3A,
         rho: Spectrum,
