@@ -194,3 +194,62 @@ def t_nlos_2corner(secondary: str = "small", width: int = 32, height: int = 32, 
     return nlos_scene(hidden, width=width, height=height, spp=spp, temporal_bins=temporal_bins,
                       bin_width_opl=bin_width_opl, start_opl=start_opl, capture_type=capture_type,
                       laser_target=T_LASER_TARGET, **settings)
+
+
+def to_transient(d: dict, temporal_bins: int = 400, bin_width_opl: float = 0.02, start_opl: float = 3.5) -> dict:
+    """Turn a steady Mitsuba scene dict (``path`` integrator, ``hdrfilm``) into a transient one
+    (``transient_path``, ``transient_hdr_film`` with a box filter), keeping everything else — e.g.
+    ``to_transient(mi.cornell_box())``."""
+    out = {}
+    for key, value in d.items():
+        if isinstance(value, dict) and value.get("type") == "path":
+            value = {"type": "transient_path", **{k: v for k, v in value.items() if k in ("max_depth", "rr_depth", "hide_emitters")}}
+        elif isinstance(value, dict) and value.get("type") == "perspective":
+            value = dict(value)
+            for k, film in list(value.items()):
+                if isinstance(film, dict) and film.get("type") == "hdrfilm":
+                    value[k] = {"type": "transient_hdr_film", "width": film.get("width", 768), "height": film.get("height", 576),
+                                "temporal_bins": temporal_bins, "bin_width_opl": bin_width_opl, "start_opl": start_opl,
+                                "rfilter": {"type": "box"}}
+        out[key] = value
+    return out
+
+
+def cornell_box(width: int = 128, height: int = 128, spp: int = 1024, temporal_bins: int = 400,
+                bin_width_opl: float = 0.02, start_opl: float = 3.5, max_depth: int = 8) -> dict:
+    """Mitsuba's ``mi.cornell_box()`` (same geometry, materials, light and camera) as a transient
+    ``transient_path`` scene: a 2x2x2 box centred at the origin, ceiling light 0.46x0.38 at y = 0.99
+    (radiance rgb 18.387, 13.9873, 6.75357), two white blocks, camera at (0, 0, 3.9) looking at the
+    origin (fov 39.3077 on the smaller axis). Bins: 400 x 0.02 m from 3.5 m (optical path from the
+    camera's pinhole: the light is first seen at 4.0 m)."""
+    T = Transform4f
+
+    def diffuse(rgb):
+        return {"type": "diffuse", "reflectance": {"type": "rgb", "value": list(rgb)}}
+
+    def wall(to_world, bsdf="white"):
+        return {"type": "rectangle", "to_world": to_world, "bsdf": {"type": "ref", "id": bsdf}}
+
+    d = {
+        "type": "scene",
+        "integrator": {"type": "path", "max_depth": max_depth},
+        "sensor": {"type": "perspective", "fov_axis": "smaller", "near_clip": 0.001, "far_clip": 100.0,
+                   "focus_distance": 1000, "fov": 39.3077, "to_world": T().look_at([0, 0, 3.9], [0, 0, 0], [0, 1, 0]),
+                   "sampler": {"type": "independent", "sample_count": spp},
+                   "film": {"type": "hdrfilm", "width": width, "height": height}},
+        "white": diffuse((0.885809, 0.698859, 0.666422)),
+        "green": diffuse((0.105421, 0.37798, 0.076425)),
+        "red": diffuse((0.570068, 0.0430135, 0.0443706)),
+        "light": {**wall(T().translate([0, 0.99, 0.01]).rotate([1, 0, 0], 90).scale([0.23, 0.19, 0.19])),
+                  "emitter": {"type": "area", "radiance": {"type": "rgb", "value": [18.387, 13.9873, 6.75357]}}},
+        "floor": wall(T().translate([0, -1, 0]).rotate([1, 0, 0], -90)),
+        "ceiling": wall(T().translate([0, 1, 0]).rotate([1, 0, 0], 90)),
+        "back": wall(T().translate([0, 0, -1])),
+        "green-wall": wall(T().translate([1, 0, 0]).rotate([0, 1, 0], -90), "green"),
+        "red-wall": wall(T().translate([-1, 0, 0]).rotate([0, 1, 0], 90), "red"),
+        "small-box": {"type": "cube", "bsdf": {"type": "ref", "id": "white"},
+                      "to_world": T().translate([0.335, -0.7, 0.38]).rotate([0, 1, 0], -17).scale(0.3)},
+        "large-box": {"type": "cube", "bsdf": {"type": "ref", "id": "white"},
+                      "to_world": T().translate([-0.33, -0.4, -0.28]).rotate([0, 1, 0], 18.25).scale([0.3, 0.61, 0.3])},
+    }
+    return to_transient(d, temporal_bins, bin_width_opl, start_opl)
