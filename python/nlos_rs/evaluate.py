@@ -3,8 +3,9 @@
     python -m nlos_rs.evaluate [--scene z_nlos_1corner] [--spp N] [--gt-spp N] [--out DIR] ...
 
 For a scene it renders (and caches) a ground truth with the baseline integrator at ``--gt-spp``,
-then the baseline (``transient_nlos_path``, laser + hidden-geometry sampling), HGRS with both
-estimators (``transient_nlos_path_rs``), the Gaussian kernel and the Epanechnikov kernel:
+then the baseline (``transient_nlos_path`` with laser + hidden-geometry sampling, or for the Cornell
+box ``transient_path``), HGRS with both estimators (``transient_nlos_path_rs``, NLOS scenes only),
+the Gaussian kernel and the Epanechnikov kernel:
 
 * at equal samples per pixel (``--spp``), and
 * at equal time: each technique gets the baseline's render time at ``--spp`` (or ``--time-budget``
@@ -33,6 +34,7 @@ SCENES = {
     "z_nlos_1corner": lambda size: nlos_rs.scenes.z_nlos_1corner(width=size, height=size),
     "t_nlos_2corner_small": lambda size: nlos_rs.scenes.t_nlos_2corner("small", width=size, height=size, filter_bounces=4),
     "t_nlos_2corner_big": lambda size: nlos_rs.scenes.t_nlos_2corner("big", width=size, height=size, filter_bounces=4),
+    "cornell_box": lambda size: nlos_rs.scenes.cornell_box(width=size, height=size),
 }
 # The thesis' settings per scene (its §5.3): spp of the compared renders, Gaussian sigma and
 # Epanechnikov bandwidth; our scan size and a ground truth of at least 35x the spp.
@@ -40,9 +42,10 @@ DEFAULTS = {  # size, spp, ground-truth spp, sigma, bandwidth
     "z_nlos_1corner": (32, 30_000, 1 << 20, 1.0, 2.0),
     "t_nlos_2corner_small": (16, 100_000, 1 << 23, 2.0, 3.0),
     "t_nlos_2corner_big": (16, 10_000, 1 << 20, 2.0, 3.0),
+    "cornell_box": (64, 1_000, 15_000, 3.0, 3.0),  # thesis §5.3.4: reference 15,000 spp
 }
 TECHNIQUES = ["baseline", "hgrs", "hgrs_rejection", "gaussian", "epanechnikov"]
-LABELS = {"baseline": "Baseline (LS + HGS)", "hgrs": "HGRS, resampled (unbiased)", "hgrs_rejection": "HGRS, rejection (thesis)",
+LABELS = {"baseline": "Baseline", "hgrs": "HGRS, resampled (unbiased)", "hgrs_rejection": "HGRS, rejection (thesis)",
           "gaussian": "Gaussian kernel", "epanechnikov": "Epanechnikov kernel"}
 
 
@@ -122,7 +125,7 @@ def plots(out: Path, gt: np.ndarray, curves: Dict[str, np.ndarray], rows: List[D
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(prog="python -m nlos_rs.evaluate", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--scene", default="z_nlos_1corner", choices=list(SCENES), help="built-in scene (default: z_nlos_1corner)")
-    ap.add_argument("--size", type=int, help="scan grid size (default: 32 for Z, 16 for the T scenes)")
+    ap.add_argument("--size", type=int, help="scan grid / image size (default: 32 for Z, 16 for the T scenes, 64 for the Cornell box)")
     ap.add_argument("--spp", type=int, help="samples per pixel of the compared renders (default: the thesis' 30,000 Z, 100,000 T small, 10,000 T big)")
     ap.add_argument("--gt-spp", type=int, help="samples per pixel of the ground truth (default: 2^20; 2^23 for T small)")
     ap.add_argument("--techniques", default=",".join(TECHNIQUES), help=f"comma-separated subset of {','.join(TECHNIQUES)}")
@@ -144,6 +147,8 @@ def main(argv=None) -> int:
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     scene = nlos_rs.load_dict(SCENES[args.scene](args.size))
+    if scene.integrator == "transient_path":  # HGRS is an NLOS technique
+        techniques = [t for t in techniques if not t.startswith("hgrs")]
     bins, dt, t0 = scene.temporal
     gt = ground_truth(scene, args, out)
 
