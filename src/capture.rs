@@ -131,7 +131,8 @@ impl<'a> Capture<'a> {
         Ok(cap)
     }
 
-    fn laser_spots(&self) -> Result<Vec<Spot>> {
+    /// The laser spots of the capture (one, one per scan point, or one per laser grid point).
+    pub fn laser_spots(&self) -> Result<Vec<Spot>> {
         let (scene, film) = (self.scene, &self.scene.meter.film);
         let laser = self.laser;
         let from_laser = |d: Vec3A| {

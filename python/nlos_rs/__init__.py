@@ -19,13 +19,15 @@ import numpy as np
 
 from . import _core
 from ._core import Scene, SceneError, __version__
-from . import metrics, nlos, scenes, transform
+from . import io, metrics, nlos, scenes, transform
 from .transform import Transform4f
 
 __all__ = [
     "Scene",
     "SceneError",
     "Transform4f",
+    "io",
+    "to_tal",
     "load_dict",
     "load_file",
     "metrics",
@@ -87,6 +89,11 @@ def _warn(scene: Scene) -> Scene:
     for w in scene.warnings:
         warnings.warn(w, stacklevel=3)
     return scene
+
+
+def to_tal(scene, transient, zero_t_start: bool = False):
+    """A ``tal.io.NLOSCaptureData`` of a render (see :mod:`nlos_rs.io`)."""
+    return io.to_tal(_as_scene(scene), transient, zero_t_start)
 
 
 _VARIANTS = {"mono": True, "rgb": False}

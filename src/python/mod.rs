@@ -327,6 +327,23 @@ impl PyScene {
             })
             .collect())
     }
+    /// Illuminated wall points and their normals as nested lists: (1, 1, 3) for a single capture,
+    /// the scan grid (H, W, 3) for confocal, (LH, LW, 3) for exhaustive (NaN where the laser misses).
+    fn laser_points(&self) -> PyResult<(Vec<Vec<[f32; 3]>>, Vec<Vec<[f32; 3]>>)> {
+        let s = self.get();
+        let cap = crate::capture::Capture::new(&s, true)?;
+        let spots = cap.laser_spots()?;
+        let f = &s.meter.film;
+        let w = match (cap.settings.capture_type, f.laser_scan) {
+            (crate::integrator::CaptureType::Single, _) => 1,
+            (crate::integrator::CaptureType::Exhaustive, Some((lw, _))) if !cap.settings.force_equal_illumination_scanning => lw,
+            _ => f.width,
+        };
+        let lit = |sp: &crate::capture::Spot, v: glam::Vec3A| if sp.radiance == glam::Vec3A::ZERO && sp.it.p == glam::Vec3A::ZERO { [f32::NAN; 3] } else { v.to_array() };
+        let pts = spots.chunks(w).map(|r| r.iter().map(|sp| lit(sp, sp.it.p)).collect()).collect();
+        let nrm = spots.chunks(w).map(|r| r.iter().map(|sp| lit(sp, sp.it.ns)).collect()).collect();
+        Ok((pts, nrm))
+    }
     /// Relay-wall point and normal at uv ∈ [0, 1]² (`rectangle.sample_position`).
     fn relay_wall_point(&self, u: f32, v: f32) -> PyResult<([f32; 3], [f32; 3])> {
         let (p, n) = self.get().relay_wall_point(Vec2::new(u, v))?;
