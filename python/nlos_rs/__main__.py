@@ -70,21 +70,30 @@ def write_figures(out: Path, steady: np.ndarray, transient: np.ndarray, t0: floa
     plt.close(fig)
 
 
-def cmd_render(args: argparse.Namespace, scene: "nlos_rs.Scene") -> int:
+def cmd_render(args: argparse.Namespace, scene: "nlos_rs.Scene", out: Path, figures: "Path | None") -> int:
+    if args.integrator:
+        scene = scene.with_integrator(args.integrator)
+    kernel = {"temporal_kernel": ["gaussian", args.kernel_sigma] if args.kernel_sigma else ["epanechnikov", args.kernel_bandwidth]}
+    info = kernel if (args.kernel_sigma or args.kernel_bandwidth) else {}
     t = time.perf_counter()
-    steady, transient = nlos_rs.render(scene, spp=args.spp, seed=args.seed, threads=args.threads,
-                                       progress=not args.quiet, variant=args.variant)
+    steady, transient = nlos_rs.render(scene, spp=args.spp, seed=args.seed, threads=args.threads, progress=not args.quiet,
+                                       variant=args.variant, kernel_sigma=args.kernel_sigma, kernel_bandwidth=args.kernel_bandwidth)
     seconds = time.perf_counter() - t
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
     bins, dt, t0 = scene.temporal
-    np.savez_compressed(out / "capture.npz", steady=steady, transient=transient, bin_width_opl=dt, start_opl=t0)
-    if args.figures:
-        write_figures(out, steady, transient, t0, dt)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    if out.suffix.lower() in (".hdf5", ".h5"):
+        nlos_rs.io.write_capture(out, scene, transient, scene_info=info)
+    elif out.suffix.lower() == ".npz":
+        np.savez_compressed(out, steady=steady, transient=transient, bin_width_opl=dt, start_opl=t0)
+    else:
+        raise ValueError(f"--out must end in .hdf5/.h5 (tal capture) or .npz (arrays), got {out}")
+    if figures is not None:
+        figures.mkdir(parents=True, exist_ok=True)
+        write_figures(figures, steady, transient, t0, dt)
     w, h = scene.film_size
     spp = args.spp or scene.spp
     print(f"rendered {w}x{h} x {bins} bins, {spp} spp ({w * h * spp / seconds / 1e6:.1f} M paths/s, {seconds:.2f} s) "
-          f"-> {out}/capture.npz{' + PNGs' if args.figures else ''}")
+          f"-> {out}{f' + PNGs in {figures}' if figures else ''}")
     return 0
 
 
@@ -102,20 +111,23 @@ def main(argv=None) -> int:
     common.add_argument("--threads", type=int, default=None, help="worker threads (default: all cores)")
     common.add_argument("--variant", default="mono", choices=["mono", "rgb"])
     common.add_argument("--quiet", action="store_true", help="no progress bar")
+    common.add_argument("--integrator", choices=["transient_nlos_path", "transient_nlos_path_rs"], help="switch the scene's integrator")
+    common.add_argument("--kernel-sigma", type=float, help="Gaussian temporal kernel, sigma in bins")
+    common.add_argument("--kernel-bandwidth", type=float, help="Epanechnikov temporal kernel, bandwidth in bins")
     demo = sub.add_parser("demo", parents=[common], help="render the built-in Z scene (64x64 x 300 bins) and write PNGs + arrays")
     demo.add_argument("--out", default="nlos_rs_demo", help="output folder (default: nlos_rs_demo)")
     rend = sub.add_parser("render", parents=[common], help="render an XML scene or a built-in scene name")
     rend.add_argument("scene", help=f"Mitsuba XML file or one of: {', '.join(BUILTIN)}")
-    rend.add_argument("--out", default="nlos_rs_out", help="output folder (default: nlos_rs_out)")
-    rend.add_argument("--figures", action="store_true", help="also write PNG figures")
+    rend.add_argument("--out", default="capture.hdf5", help="tal capture (.hdf5) or arrays (.npz); default capture.hdf5")
+    rend.add_argument("--figures", metavar="DIR", help="also write PNG figures to DIR")
     sub.add_parser("evaluate", help="reproduce the thesis evaluation (see: evaluate --help)")
     args = ap.parse_args(argv)
     try:
         if args.cmd == "demo":
-            args.figures = True
             args.spp = args.spp or 4096
-            return cmd_render(args, nlos_rs.load_dict(nlos_rs.scenes.z_nlos_1corner(width=64, height=64)))
-        return cmd_render(args, _load(args.scene))
+            out = Path(args.out)
+            return cmd_render(args, nlos_rs.load_dict(nlos_rs.scenes.z_nlos_1corner(width=64, height=64)), out / "capture.npz", out)
+        return cmd_render(args, _load(args.scene), Path(args.out), Path(args.figures) if args.figures else None)
     except KeyboardInterrupt:
         print("nlos-rs: interrupted", file=sys.stderr)
         return 130

@@ -11,17 +11,37 @@ def run(*args, cwd):
 
 
 def test_render_builtin_scene(tmp_path):
-    r = run("render", "z_nlos_1corner", "--spp", "8", "--quiet", "--figures", "--out", "o", cwd=tmp_path)
+    r = run("render", "z_nlos_1corner", "--spp", "8", "--quiet", "--figures", "figs", "--out", "o/a.npz", cwd=tmp_path)
     assert r.returncode == 0, r.stderr
     assert "rendered 32x32 x 300 bins, 8 spp" in r.stdout
-    data = np.load(tmp_path / "o" / "capture.npz")
+    data = np.load(tmp_path / "o" / "a.npz")
     assert data["transient"].shape == (32, 32, 300, 1)
-    assert (tmp_path / "o" / "time_slices.png").exists()
+    assert (tmp_path / "figs" / "time_slices.png").exists()
+
+
+def test_render_to_a_tal_capture_with_the_thesis_options(tmp_path):
+    import tal
+
+    r = run("render", "z_nlos_1corner", "--spp", "16", "--integrator", "transient_nlos_path_rs", "--kernel-sigma", "1.5",
+            "--out", "z.hdf5", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    data = tal.io.read_capture(str(tmp_path / "z.hdf5"))
+    assert data.H.shape == (300, 32, 32)
+    assert data.scene_info["integrator"] == "transient_nlos_path_rs"
+    assert data.scene_info["temporal_kernel"] == ["gaussian", 1.5]
+
+
+def test_demo(tmp_path):
+    r = run("demo", "--spp", "16", "--quiet", "--out", "d", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    for f in ("capture.npz", "steady.png", "time_slices.png", "pixel_transient.png"):
+        assert (tmp_path / "d" / f).exists()
 
 
 def test_errors_are_one_line(tmp_path):
     (tmp_path / "bad.xml").write_text("<scene version='3.5.0'><integrator type='transient_nlos_path'><integer name='max_dpeth' value='1'/></integrator></scene>")
-    for args in (["render", "nope.xml"], ["render", "bad.xml"], ["render", "teapot"], ["render", "z_nlos_1corner", "--spp", "0"]):
+    for args in (["render", "nope.xml"], ["render", "bad.xml"], ["render", "teapot"], ["render", "z_nlos_1corner", "--spp", "0"],
+                 ["render", "z_nlos_1corner", "--spp", "4", "--out", "x.txt"]):
         r = run(*args, cwd=tmp_path)
         assert r.returncode == 2, (args, r.stderr)
         assert r.stderr.count("\n") == 1 and r.stderr.startswith("nlos-rs: error:") and "Traceback" not in r.stderr, r.stderr
