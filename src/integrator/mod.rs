@@ -7,8 +7,11 @@ pub mod path;
 pub use nlos::{CaptureType, Hgrs, HgrsEstimator, NlosSettings};
 pub use path::PathSettings;
 
+use crate::error::{NlosError, Result};
+use crate::film::TemporalKernel;
 use crate::geometry::{Interaction, Prim};
 use crate::math::Spectrum;
+use crate::props::Props;
 use crate::sampling::{
     Discrete, square_to_uniform_disk_concentric, square_to_uniform_sphere,
     square_to_uniform_triangle,
@@ -87,3 +90,34 @@ pub(crate) fn diffuse_f(rho: Spectrum, ns: Vec3A, wi: Vec3A, wo: Vec3A) -> Optio
 
 /// A contribution: laser slot, optical path length, value.
 pub type Splat = (usize, f64, Spectrum);
+
+/// `max_depth`: -1 means unbounded (`u32::MAX`), else a non-negative count.
+pub(crate) fn max_depth(p: &Props, default: i64) -> Result<u32> {
+    match p.int("max_depth", default)? {
+        -1 => Ok(u32::MAX),
+        v if v >= 0 && v < u32::MAX as i64 => Ok(v as u32),
+        v => Err(NlosError::prop(
+            &p.plugin,
+            "max_depth",
+            format!("must be -1 or non-negative, got {v}"),
+        )),
+    }
+}
+
+/// mitransient's `temporal_filter` / `gaussian_stddev`, which it accepts and ignores: here `'gaussian'`
+/// is the Gaussian temporal kernel with σ = `gaussian_stddev` bins.
+pub(crate) fn temporal_filter(p: &Props, default_stddev: f64) -> Result<Option<TemporalKernel>> {
+    let plugin = p.plugin.as_str();
+    let stddev = p.float("gaussian_stddev", default_stddev)?;
+    match p.string("temporal_filter", "")?.as_str() {
+        "" | "box" => Ok(None),
+        "gaussian" => TemporalKernel::from_params(plugin, Some(stddev), None)
+            .map(Some)
+            .map_err(|_| NlosError::prop(plugin, "gaussian_stddev", "must be positive")),
+        other => Err(NlosError::prop(
+            plugin,
+            "temporal_filter",
+            format!("must be 'box' or 'gaussian', got '{other}'"),
+        )),
+    }
+}

@@ -6,7 +6,7 @@
 //! hidden-geometry sampling tests visibility, the 50/50 technique choice does not double the
 //! estimate, and the capture's time origin ignores the shutter. See docs/compatibility.md.
 
-use super::{AreaSampler, Splat, diffuse_f};
+use super::{AreaSampler, Splat, diffuse_f, max_depth, temporal_filter};
 use crate::capture::{Capture, Spot};
 use crate::error::{NlosError, Result};
 use crate::film::{Film, TemporalKernel};
@@ -128,7 +128,7 @@ impl NlosSettings {
     /// Read the integrator's properties; unknown ones are rejected.
     pub fn from_props(p: &Props) -> Result<Self> {
         let plugin = p.plugin.as_str();
-        let max_depth = depth_param(p, "max_depth", 6)?.unwrap_or(u32::MAX);
+        let max_depth = max_depth(p, 6)?;
         let rr_depth = p.int("rr_depth", 5)?;
         if rr_depth <= 0 {
             return Err(NlosError::prop(plugin, "rr_depth", "must be > 0"));
@@ -169,22 +169,7 @@ impl NlosSettings {
                 ));
             }
         };
-        // mitransient 1.3.1 accepts and ignores these; here 'gaussian' is the Gaussian kernel.
-        let stddev = p.float("gaussian_stddev", 0.5)?;
-        let temporal_kernel = match p.string("temporal_filter", "")?.as_str() {
-            "" | "box" => None,
-            "gaussian" => Some(
-                TemporalKernel::from_params(plugin, Some(stddev), None)
-                    .map_err(|_| NlosError::prop(plugin, "gaussian_stddev", "must be positive"))?,
-            ),
-            other => {
-                return Err(NlosError::prop(
-                    plugin,
-                    "temporal_filter",
-                    format!("must be 'box' or 'gaussian', got '{other}'"),
-                ));
-            }
-        };
+        let temporal_kernel = temporal_filter(p, 0.5)?;
         let hgrs = if plugin == "transient_nlos_path_rs" {
             Some(Hgrs::parse(
                 plugin,

@@ -4,7 +4,7 @@
 //! optical path length travelled so far, from the camera's pinhole (or from the first surface with
 //! `camera_unwarp`).
 
-use super::{AreaSampler, Splat, diffuse_f};
+use super::{AreaSampler, Splat, diffuse_f, max_depth, temporal_filter};
 use crate::camera::Camera;
 use crate::emitter::Light;
 use crate::error::{NlosError, Result};
@@ -36,36 +36,12 @@ impl PathSettings {
     /// Read the integrator's properties; unknown ones are rejected.
     pub fn from_props(p: &Props) -> Result<Self> {
         let plugin = p.plugin.as_str();
-        let max_depth = match p.int("max_depth", 6)? {
-            -1 => u32::MAX,
-            v if v >= 0 && v < u32::MAX as i64 => v as u32,
-            v => {
-                return Err(NlosError::prop(
-                    plugin,
-                    "max_depth",
-                    format!("must be -1 or non-negative, got {v}"),
-                ));
-            }
-        };
+        let max_depth = max_depth(p, 6)?;
         let rr_depth = p.int("rr_depth", 5)?;
         if rr_depth <= 0 || rr_depth >= u32::MAX as i64 {
             return Err(NlosError::prop(plugin, "rr_depth", "must be > 0"));
         }
-        let stddev = p.float("gaussian_stddev", 2.0)?;
-        let temporal_kernel = match p.string("temporal_filter", "")?.as_str() {
-            "" | "box" => None,
-            "gaussian" => Some(
-                TemporalKernel::from_params(plugin, Some(stddev), None)
-                    .map_err(|_| NlosError::prop(plugin, "gaussian_stddev", "must be positive"))?,
-            ),
-            other => {
-                return Err(NlosError::prop(
-                    plugin,
-                    "temporal_filter",
-                    format!("must be 'box' or 'gaussian', got '{other}'"),
-                ));
-            }
-        };
+        let temporal_kernel = temporal_filter(p, 2.0)?;
         // Accepted because mitransient accepts them; without an environment light they change nothing.
         p.bool("hide_emitters", false)?;
         p.int("block_size", 0)?;

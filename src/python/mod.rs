@@ -336,12 +336,28 @@ impl PyScene {
         let f = &s.meter.film;
         let w = match (cap.settings.capture_type, f.laser_scan) {
             (crate::integrator::CaptureType::Single, _) => 1,
-            (crate::integrator::CaptureType::Exhaustive, Some((lw, _))) if !cap.settings.force_equal_illumination_scanning => lw,
+            (crate::integrator::CaptureType::Exhaustive, Some((lw, _)))
+                if !cap.settings.force_equal_illumination_scanning =>
+            {
+                lw
+            }
             _ => f.width,
         };
-        let lit = |sp: &crate::capture::Spot, v: glam::Vec3A| if sp.radiance == glam::Vec3A::ZERO && sp.it.p == glam::Vec3A::ZERO { [f32::NAN; 3] } else { v.to_array() };
-        let pts = spots.chunks(w).map(|r| r.iter().map(|sp| lit(sp, sp.it.p)).collect()).collect();
-        let nrm = spots.chunks(w).map(|r| r.iter().map(|sp| lit(sp, sp.it.ns)).collect()).collect();
+        let lit = |sp: &crate::capture::Spot, v: glam::Vec3A| {
+            if sp.radiance == glam::Vec3A::ZERO && sp.it.p == glam::Vec3A::ZERO {
+                [f32::NAN; 3]
+            } else {
+                v.to_array()
+            }
+        };
+        let pts = spots
+            .chunks(w)
+            .map(|r| r.iter().map(|sp| lit(sp, sp.it.p)).collect())
+            .collect();
+        let nrm = spots
+            .chunks(w)
+            .map(|r| r.iter().map(|sp| lit(sp, sp.it.ns)).collect())
+            .collect();
         Ok((pts, nrm))
     }
     /// Relay-wall point and normal at uv ∈ [0, 1]² (`rectangle.sample_position`).
