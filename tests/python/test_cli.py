@@ -54,3 +54,12 @@ def test_evaluate_writes_the_table(tmp_path):
     for label in ("Baseline", "HGRS, resampled", "HGRS, rejection", "Gaussian kernel", "Epanechnikov kernel", "Equal time"):
         assert label in md
     assert (tmp_path / "ev" / "mse_psnr_equal_spp.png").exists()
+
+
+def test_console_script_is_installed():
+    import shutil
+
+    exe = shutil.which("nlos-rs")
+    assert exe, "the nlos-rs console script is not on PATH"
+    r = subprocess.run([exe, "--help"], capture_output=True, text=True)
+    assert r.returncode == 0 and "render" in r.stdout and "evaluate" in r.stdout
