@@ -21,6 +21,8 @@ pub struct Spot {
     pub radiance: Spectrum,
     /// Optical path from the spot back to the laser, if it is accounted for (else 0).
     pub last_leg: f64,
+    /// Whether the laser reaches a surface here at all.
+    pub hit: bool,
 }
 
 /// Everything a render needs beyond the scene: spectra for the chosen variant, the scan points,
@@ -57,6 +59,7 @@ impl Spot {
         },
         radiance: Spectrum::ZERO,
         last_leg: 0.0,
+        hit: false,
     };
 }
 
@@ -211,6 +214,7 @@ impl<'a> Capture<'a> {
             it,
             radiance,
             last_leg,
+            hit: true,
         }
     }
 }
