@@ -344,11 +344,7 @@ impl PyScene {
             _ => f.width,
         };
         let lit = |sp: &crate::capture::Spot, v: glam::Vec3A| {
-            if sp.radiance == glam::Vec3A::ZERO && sp.it.p == glam::Vec3A::ZERO {
-                [f32::NAN; 3]
-            } else {
-                v.to_array()
-            }
+            if sp.hit { v.to_array() } else { [f32::NAN; 3] }
         };
         let pts = spots
             .chunks(w)
