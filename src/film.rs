@@ -196,28 +196,82 @@ impl Film {
         self.laser_scan.map_or(1, |(w, h)| w * h)
     }
 
-    /// Spread a contribution of optical path length `opl` over the bins of the time window:
-    /// `put(bin, weight)` for every bin it reaches (weights sum to one away from the window's ends).
+    /// The splatter of this film's bins and kernel, for one render.
+    pub fn splatter(&self) -> Splatter {
+        Splatter::new(self)
+    }
+}
+
+/// Sub-bin offsets at which kernel weights are tabulated (linear interpolation in between is
+/// accurate to ~1e-7 and keeps the weights summing to one).
+const OFFSETS: usize = 1024;
+
+/// Spreads contributions over the time bins of a film (the per-render form of its kernel): the
+/// weights of a kernel centred at x depend only on x − ⌊x⌋, so they are tabulated once.
+pub struct Splatter {
+    start_opl: f64,
+    inv_bin_width: f64,
+    bins: usize,
+    /// Tabulated kernel weights: `OFFSETS + 1` rows of `len` bins, starting at bin ⌊x⌋ + `first`.
+    table: Vec<f32>,
+    len: usize,
+    first: i64,
+}
+
+impl Splatter {
+    fn new(film: &Film) -> Self {
+        let (mut table, mut len, mut first) = (Vec::new(), 0, 0);
+        if film.kernel != TemporalKernel::Box {
+            let r = film.kernel.radius();
+            first = -(r.ceil() as i64) - 1;
+            len = (2 * (r.ceil() as i64) + 3) as usize;
+            for k in 0..=OFFSETS {
+                let f = k as f64 / OFFSETS as f64;
+                // Bin j (relative to ⌊x⌋) gets the kernel's integral over [j, j + 1) − f.
+                let mut below = film.kernel.cdf(first as f64 - f);
+                for j in 0..len as i64 {
+                    let above = film.kernel.cdf((first + j + 1) as f64 - f);
+                    table.push((above - below) as f32);
+                    below = above;
+                }
+            }
+        }
+        Self {
+            start_opl: film.start_opl,
+            inv_bin_width: 1.0 / film.bin_width_opl,
+            bins: film.temporal_bins,
+            table,
+            len,
+            first,
+        }
+    }
+
+    /// Spread a contribution of optical path length `opl`: `put(bin, weight)` for every bin of the
+    /// time window it reaches (weights sum to one away from the window's ends).
     #[inline]
     pub fn splat(&self, opl: f64, mut put: impl FnMut(usize, f32)) {
-        let x = (opl - self.start_opl) / self.bin_width_opl;
-        let t = self.temporal_bins as f64;
-        if self.kernel == TemporalKernel::Box {
-            if x >= 0.0 && x < t {
+        let x = (opl - self.start_opl) * self.inv_bin_width;
+        if self.len == 0 {
+            if x >= 0.0 && x < self.bins as f64 {
                 put(x as usize, 1.0);
             }
             return;
         }
-        let r = self.kernel.radius();
-        let (lo, hi) = ((x - r).floor().max(0.0), (x + r).floor().min(t - 1.0));
-        if lo > hi {
-            return;
-        }
-        let mut below = self.kernel.cdf(lo - x);
-        for j in lo as usize..=hi as usize {
-            let above = self.kernel.cdf(j as f64 + 1.0 - x);
-            put(j, (above - below) as f32);
-            below = above;
+        let i = x.floor();
+        let pos = (x - i) * OFFSETS as f64;
+        let k = (pos as usize).min(OFFSETS - 1);
+        let a = (pos - k as f64) as f32;
+        let (r0, r1) = (
+            &self.table[k * self.len..(k + 1) * self.len],
+            &self.table[(k + 1) * self.len..(k + 2) * self.len],
+        );
+        let base = i as i64 + self.first;
+        for j in 0..self.len {
+            let bin = base + j as i64;
+            let w = r0[j] + a * (r1[j] - r0[j]);
+            if w != 0.0 && bin >= 0 && (bin as usize) < self.bins {
+                put(bin as usize, w);
+            }
         }
     }
 }

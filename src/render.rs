@@ -76,6 +76,7 @@ pub fn render(scene: &Scene, opts: &RenderOptions, monitor: &Monitor) -> Result<
         film.kernel = k;
     }
     let film = &film;
+    let splatter = film.splatter();
     let tracer = match &scene.setup {
         Setup::Nlos(_) => Tracer::Nlos(Capture::new(scene, opts.mono)?),
         Setup::Los(los) => Tracer::Los(PathTracer::new(
@@ -105,7 +106,7 @@ pub fn render(scene: &Scene, opts: &RenderOptions, monitor: &Monitor) -> Result<
                     for k in 0..c {
                         sum[k] += v[k] as f64;
                     }
-                    film.splat(opl, |bin, w| {
+                    splatter.splat(opl, |bin, w| {
                         let at = (slot * t + bin) * c;
                         for k in 0..c {
                             buf[at + k] += v[k] * w;

@@ -1,7 +1,7 @@
 //! Temporal kernel density estimation (thesis §3.2): bin weights are the kernel's integral over
 //! each bin, they sum to one inside the window, and the box kernel is mitransient's histogram.
 
-use nlos_rs::film::{Film, GAUSSIAN_CUTOFF_SIGMAS, TemporalKernel};
+use nlos_rs::film::{Film, GAUSSIAN_CUTOFF_SIGMAS, Splatter, TemporalKernel};
 use nlos_rs::sampling::Sampler;
 
 fn film(kernel: TemporalKernel) -> Film {
@@ -16,9 +16,9 @@ fn film(kernel: TemporalKernel) -> Film {
     }
 }
 
-fn weights(f: &Film, opl: f64) -> Vec<f64> {
-    let mut w = vec![0.0; f.temporal_bins];
-    f.splat(opl, |j, v| w[j] += v as f64);
+fn weights(s: &Splatter, opl: f64) -> Vec<f64> {
+    let mut w = vec![0.0; 200];
+    s.splat(opl, |j, v| w[j] += v as f64);
     w
 }
 
@@ -31,7 +31,7 @@ fn integrate(pdf: impl Fn(f64) -> f64, a: f64, b: f64) -> f64 {
 
 #[test]
 fn box_is_the_histogram() {
-    let f = film(TemporalKernel::Box);
+    let f = film(TemporalKernel::Box).splatter();
     let w = weights(&f, 1.0 + 0.01 * 37.4);
     assert_eq!(w[37], 1.0);
     assert_eq!(w.iter().sum::<f64>(), 1.0);
@@ -48,7 +48,7 @@ fn kernels_conserve_energy_inside_the_window() {
         TemporalKernel::Epanechnikov(0.7),
         TemporalKernel::Epanechnikov(3.0),
     ] {
-        let f = film(k);
+        let f = film(k).splatter();
         for _ in 0..2000 {
             let x = 20.0 + 160.0 * rng.next_1d() as f64;
             let sum: f64 = weights(&f, 1.0 + 0.01 * x).iter().sum();
@@ -60,7 +60,7 @@ fn kernels_conserve_energy_inside_the_window() {
 #[test]
 fn gaussian_weights_are_bin_integrals_of_the_truncated_density() {
     let (sigma, x) = (1.7, 93.35);
-    let f = film(TemporalKernel::Gaussian(sigma));
+    let f = film(TemporalKernel::Gaussian(sigma)).splatter();
     let w = weights(&f, 1.0 + 0.01 * x);
     let r = GAUSSIAN_CUTOFF_SIGMAS * sigma;
     let pdf = |t: f64| {
@@ -86,7 +86,7 @@ fn gaussian_weights_are_bin_integrals_of_the_truncated_density() {
 #[test]
 fn epanechnikov_weights_are_exact_on_its_support() {
     let (b, x) = (2.5, 50.8);
-    let f = film(TemporalKernel::Epanechnikov(b));
+    let f = film(TemporalKernel::Epanechnikov(b)).splatter();
     let w = weights(&f, 1.0 + 0.01 * x);
     let pdf = |t: f64| {
         let u = (t - x) / b;
