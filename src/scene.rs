@@ -494,7 +494,7 @@ impl Scene {
                 "the scene needs exactly one integrator ('transient_nlos_path', 'transient_nlos_path_rs' or 'transient_path'); found {integrators}"
             )));
         }
-        let (mut meter, setup) = if let Some(settings) = nlos_settings {
+        let (meter, setup) = if let Some(settings) = nlos_settings {
             if lasers.len() != 1 || !b.lights.is_empty() {
                 return Err(NlosError::Scene(format!(
                     "an NLOS scene needs exactly one emitter, the projector laser; found {} projector(s) and {} other light(s)",
@@ -551,7 +551,6 @@ impl Scene {
                 }),
             )
         };
-        meter.warnings.shrink_to_fit();
         let accel = std::sync::Arc::new(Accel::build(&b.prims));
         Ok(Self {
             shapes: b.shapes,
