@@ -39,32 +39,37 @@ def test_kde_conserves_each_pixels_energy(kw):
     assert np.abs(kde - box).max() > 0
 
 
+FINE = 16  # sub-bins per bin of the reference histogram
+
+
 def smoothing_matrix(kind, width, n):
-    """E[bin weights] of a contribution uniformly placed in bin i, as an n x n matrix."""
+    """Weights taking a histogram with FINE sub-bins per bin to E[kernel bins]: a contribution in
+    sub-bin i, placed uniformly inside it, gives bin j the kernel's integral over bin j."""
     f = {"gaussian": lambda u: np.exp(-u * u / (2 * width**2)) * (np.abs(u) <= 4 * width),
          "epanechnikov": lambda u: np.clip(1 - (u / width) ** 2, 0, None)}[kind]
-    s = (np.arange(64) + 0.5) / 64  # sub-bin positions
-    t = np.linspace(0, 1, 65)[:-1] + 0.5 / 64  # points inside a bin
-    offsets = np.arange(-12, 13)
-    k = np.array([f(o + t[None, :] - s[:, None]).mean() for o in offsets])
-    k /= k.sum()
-    m = np.zeros((n, n))
-    for i in range(n):
-        for o, w in zip(offsets, k):
-            if 0 <= i + o < n:
-                m[i + o, i] += w
+    u = np.linspace(-14, 14, 28 * 256 + 1)
+    cdf = np.concatenate([[0.0], np.cumsum((f(u[1:]) + f(u[:-1])) / 2)])
+    cdf /= cdf[-1]
+    big_f = lambda v: np.interp(v, u, cdf)  # noqa: E731
+    m = np.zeros((n, n * FINE))
+    sub = (np.arange(8) + 0.5) / 8  # positions inside a sub-bin
+    for i in range(n * FINE):
+        x = (i + sub) / FINE  # arrival positions, in bins
+        for j in range(max(0, int(x[0]) - 13), min(n, int(x[-1]) + 14)):
+            m[j, i] = np.mean(big_f(j + 1 - x) - big_f(j - x))
     return m
 
 
 @pytest.mark.parametrize("kind, width", [("gaussian", 2.0), ("epanechnikov", 3.0)])
 def test_kde_shape_is_the_box_result_smoothed_by_the_bin_integrated_kernel(kind, width):
-    """E[KDE] = (bin-integrated kernel) * E[box]; compared across independent replicates."""
+    """E[KDE] equals a finely binned box result smoothed by the bin-integrated kernel; compared
+    across independent replicates."""
     kw = {"kernel_sigma": width} if kind == "gaussian" else {"kernel_bandwidth": width}
     d = z(width=4, height=4, spp=4096)
-    box = reps(d).sum((1, 2))
-    kde = reps(d, first_seed=100, **kw).sum((1, 2))  # independent of the box replicates
-    m = smoothing_matrix(kind, width, box.shape[-1])
-    smoothed = box @ m.T
+    fine = z(width=4, height=4, spp=4096, temporal_bins=300 * FINE, bin_width_opl=0.006 / FINE)
+    box = reps(fine, n=12).sum((1, 2))
+    kde = reps(d, n=12, first_seed=100, **kw).sum((1, 2))  # independent of the box replicates
+    smoothed = box @ smoothing_matrix(kind, width, kde.shape[-1]).T
     res = agreement(rebin(kde, 2, -1), rebin(smoothed, 2, -1))
     print(f"\n{kind}: {res}")
     assert res["agree"], res
