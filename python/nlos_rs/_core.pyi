@@ -1,13 +1,17 @@
 """Type stubs of the compiled core (src/python/mod.rs)."""
 
-from typing import Callable, Dict, List, Optional, Tuple
+from typing import Callable, Dict, List, Optional, Tuple, final
 
 import numpy as np
+
+__all__ = ["__version__", "SceneError", "Scene", "load_dict", "load_file", "render", "transform_look_at",
+           "transform_translate", "transform_scale", "transform_rotate"]
 
 __version__: str
 
 class SceneError(ValueError): ...
 
+@final
 class Scene:
     @property
     def film_size(self) -> Tuple[int, int]: ...

@@ -389,6 +389,7 @@ impl PyScene {
 
 /// Build a scene from a (normalised) Mitsuba scene dict.
 #[pyfunction]
+#[pyo3(signature = (d, base_dir=None))]
 fn load_dict(
     py: Python<'_>,
     d: &Bound<'_, PyDict>,
