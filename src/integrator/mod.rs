@@ -13,7 +13,7 @@ use crate::geometry::{Interaction, Prim};
 use crate::math::Spectrum;
 use crate::props::Props;
 use crate::sampling::{
-    Discrete, square_to_uniform_disk_concentric, square_to_uniform_sphere,
+    Discrete, Sampler, square_to_uniform_disk_concentric, square_to_uniform_sphere,
     square_to_uniform_triangle,
 };
 use crate::scene::Scene;
@@ -120,4 +120,28 @@ pub(crate) fn temporal_filter(p: &Props, default_stddev: f64) -> Result<Option<T
             format!("must be 'box' or 'gaussian', got '{other}'"),
         )),
     }
+}
+
+/// Russian roulette as Mitsuba does it: a path with zero throughput ends; from loop depth `rr_depth`
+/// on it survives with probability q = min(max β, 0.95) and β is divided by q. Returns whether the
+/// path goes on.
+#[inline]
+pub(crate) fn russian_roulette(
+    beta: &mut Spectrum,
+    depth: u32,
+    rr_depth: u32,
+    rng: &mut Sampler,
+) -> bool {
+    let m = beta.max_element();
+    if !(m > 0.0) {
+        return false;
+    }
+    if depth >= rr_depth {
+        let q = m.min(0.95);
+        if rng.next_1d() >= q {
+            return false;
+        }
+        *beta /= q;
+    }
+    true
 }

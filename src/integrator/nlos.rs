@@ -6,7 +6,7 @@
 //! hidden-geometry sampling tests visibility, the 50/50 technique choice does not double the
 //! estimate, and the capture's time origin ignores the shutter. See docs/compatibility.md.
 
-use super::{AreaSampler, Splat, diffuse_f, max_depth, temporal_filter};
+use super::{AreaSampler, Splat, diffuse_f, max_depth, russian_roulette, temporal_filter};
 use crate::capture::{Capture, Spot};
 use crate::error::{NlosError, Result};
 use crate::film::{Film, TemporalKernel};
@@ -542,17 +542,9 @@ impl Capture<'_> {
                 (hit, (hit.p - it.p).length(), rho)
             };
             beta *= weight;
-            let m = beta.max_element();
-            if !(m > 0.0) {
-                break;
-            }
             // ---- Russian roulette (spec §3.3 step 7)
-            if depth >= st.rr_depth {
-                let q = m.min(0.95);
-                if rng.next_1d() >= q {
-                    break;
-                }
-                beta /= q;
+            if !russian_roulette(&mut beta, depth, st.rr_depth, rng) {
+                break;
             }
             wi = (it.p - next.p).normalize();
             opl += dist as f64;

@@ -4,7 +4,7 @@
 //! optical path length travelled so far, from the camera's pinhole (or from the first surface with
 //! `camera_unwarp`).
 
-use super::{AreaSampler, Splat, diffuse_f, max_depth, temporal_filter};
+use super::{AreaSampler, Splat, diffuse_f, max_depth, russian_roulette, temporal_filter};
 use crate::camera::Camera;
 use crate::emitter::Light;
 use crate::error::{NlosError, Result};
@@ -254,17 +254,8 @@ impl<'a> PathTracer<'a> {
             let local = square_to_cosine_hemisphere(rng.next_2d());
             let wo = Frame::new(it.ns).to_world(local);
             beta *= rho;
-            let m = beta.max_element();
-            if !(m > 0.0) {
+            if !russian_roulette(&mut beta, depth, st.rr_depth, rng) {
                 break;
-            }
-            // ---- Russian roulette
-            if depth >= st.rr_depth {
-                let q = m.min(0.95);
-                if rng.next_1d() >= q {
-                    break;
-                }
-                beta /= q;
             }
             prev = Some((it.p, local.z * FRAC_1_PI));
             o = it.offset_origin(wo);
