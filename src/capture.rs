@@ -1,17 +1,17 @@
-//! The capture geometry of an `nlos_capture_meter` (mitransient-nlos-spec §1.1, §3.1, §5): which
-//! relay-wall point each pixel scans, where the laser spots are, and the spots' cached
-//! next-event estimate towards the laser. Prepared once per render.
+//! The capture geometry of an `nlos_capture_meter` (mitransient-model §1, §3.1, §4): which
+//! relay-wall point each pixel scans, where the laser spots are, and each spot's next-event
+//! estimate towards the laser, which is the same for every path and so is computed once per render.
 
-use crate::emitter::Projector;
+use crate::bsdf::Bsdf;
 use crate::error::{NlosError, Result};
-use crate::geometry::{Interaction, shadow_segment};
-use crate::integrator::{AreaSampler, CaptureType, NlosSettings};
+use crate::geometry::Interaction;
 use crate::math::Spectrum;
-use crate::scene::Scene;
+use crate::scene::{Nlos, Scene};
+use crate::settings::CaptureType;
 use glam::{Vec2, Vec3A};
 use std::f32::consts::FRAC_1_PI;
 
-/// A laser spot p_L on the scene and its NEE to the laser, which is the same for every path:
+/// A laser spot p_L on the scene and its NEE to the laser:
 /// radiance = E · W(p_L) · ρ/π · cosθ(p_L → o_L) · V(p_L, o_L).
 #[derive(Clone, Copy, Debug)]
 pub struct Spot {
@@ -23,29 +23,6 @@ pub struct Spot {
     pub last_leg: f64,
     /// Whether the laser reaches a surface here at all.
     pub hit: bool,
-}
-
-/// Everything a render needs beyond the scene: spectra for the chosen variant, the scan points,
-/// the laser spots and the hidden-geometry distribution.
-pub struct Capture<'a> {
-    /// The scene.
-    pub scene: &'a Scene,
-    /// Its integrator settings.
-    pub settings: &'a NlosSettings,
-    /// Its laser.
-    pub laser: &'a Projector,
-    /// Reflectance of each BSDF.
-    pub rho: Vec<Spectrum>,
-    /// Laser irradiance (× scale).
-    pub irradiance: Spectrum,
-    /// First surface seen by the sensor through each pixel's scan point (row-major, y first).
-    pub sensor_targets: Vec<Option<Interaction>>,
-    /// Laser spots: one (single), one per pixel (confocal), one per laser grid point (exhaustive).
-    pub spots: Vec<Spot>,
-    /// Hidden-geometry distribution, if that sampling is on.
-    pub hidden: Option<AreaSampler>,
-    /// Output channels (1 mono, 3 rgb).
-    pub channels: usize,
 }
 
 impl Spot {
@@ -63,132 +40,131 @@ impl Spot {
     };
 }
 
-impl<'a> Capture<'a> {
-    /// Prepare a render of `scene` in mono or rgb.
-    pub fn new(scene: &'a Scene, mono: bool) -> Result<Self> {
-        let nlos = scene.nlos()?;
-        let (settings, laser) = (&nlos.settings, &nlos.laser);
-        let film = &scene.meter.film;
-        let rho = scene
-            .bsdfs
-            .iter()
-            .map(|b| b.reflectance.spectrum(mono))
-            .collect();
-        let irradiance = laser.irradiance.spectrum(mono);
-        let s = scene.meter.origin;
-        // Scan points: pixel (x, y) looks at uv = ((x + ½)/W, (y + ½)/H) of the relay wall; the first
-        // surface on the way is the path's first vertex x1 (exact pixel centres: spec §7 item 6).
-        let mut sensor_targets = Vec::with_capacity(film.width * film.height);
-        for y in 0..film.height {
-            for x in 0..film.width {
-                let uv = Vec2::new(
-                    (x as f32 + 0.5) / film.width as f32,
-                    (y as f32 + 0.5) / film.height as f32,
-                );
-                let (target, _) = scene.relay_wall_point(uv)?;
-                let d = (target - s).normalize_or_zero();
-                sensor_targets.push(if d == Vec3A::ZERO {
-                    None
-                } else {
-                    scene.intersect(s, d, f32::INFINITY).map(|h| h.1)
-                });
-            }
-        }
-        if sensor_targets.iter().all(Option::is_none) {
-            return Err(NlosError::prop(
-                "nlos_capture_meter",
-                "sensor_origin",
-                "no scan point is visible from the sensor origin",
-            ));
-        }
-        let hidden = if settings.hidden_geometry_sampling {
-            // Every shape but the relay wall (unless included) is hidden geometry (spec §3.1).
-            let wall = nlos.relay_wall;
-            Some(
-                AreaSampler::new(scene, |s| settings.hgs_includes_relay_wall || s != wall)
-                    .ok_or_else(|| {
-                        NlosError::prop(
-                            "transient_nlos_path",
-                            "nlos_hidden_geometry_sampling",
-                            "the scene has no hidden geometry to sample (zero total area)",
-                        )
-                    })?,
-            )
+/// Where a capture looks and where its laser shines.
+pub struct Capture {
+    /// First surface seen by the sensor through each pixel's scan point (row-major, y first).
+    pub scan_points: Vec<Option<Interaction>>,
+    /// Laser spots: one (single), one per pixel (confocal), one per laser grid point (exhaustive).
+    pub spots: Vec<Spot>,
+}
+
+impl Capture {
+    /// The scan points of `scene` and, with laser sampling, its laser spots (spectra for a mono or
+    /// rgb render).
+    pub fn new(scene: &Scene, mono: bool) -> Result<Self> {
+        let scan_points = scan_points(scene)?;
+        let spots = if scene.nlos()?.settings.laser_sampling {
+            laser_spots(scene, &scan_points, mono)?
         } else {
-            None
+            Vec::new()
         };
-        let mut cap = Self {
-            scene,
-            settings,
-            laser,
-            rho,
-            irradiance,
-            sensor_targets,
-            spots: Vec::new(),
-            hidden,
-            channels: if mono { 1 } else { 3 },
-        };
-        if settings.laser_sampling {
-            cap.spots = cap.laser_spots()?;
+        Ok(Self { scan_points, spots })
+    }
+}
+
+/// Scan points: pixel (x, y) looks at uv = ((x + ½)/W, (y + ½)/H) of the relay wall; the first
+/// surface on the way from the sensor is the path's first vertex x₁ (exact pixel centres, unlike
+/// mitransient: mitransient-model §5 item 4).
+pub fn scan_points(scene: &Scene) -> Result<Vec<Option<Interaction>>> {
+    let film = &scene.meter.film;
+    let s = scene.meter.origin;
+    let mut points = Vec::with_capacity(film.width * film.height);
+    for y in 0..film.height {
+        for x in 0..film.width {
+            let uv = Vec2::new(
+                (x as f32 + 0.5) / film.width as f32,
+                (y as f32 + 0.5) / film.height as f32,
+            );
+            let (target, _) = scene.relay_wall_point(uv)?;
+            let d = (target - s).normalize_or_zero();
+            points.push(if d == Vec3A::ZERO {
+                None
+            } else {
+                scene.intersect(s, d, f32::INFINITY).map(|h| h.1)
+            });
         }
-        Ok(cap)
     }
-
-    /// The laser spots of the capture (one, one per scan point, or one per laser grid point).
-    pub fn laser_spots(&self) -> Result<Vec<Spot>> {
-        let (scene, film) = (self.scene, &self.scene.meter.film);
-        let laser = self.laser;
-        let from_laser = |d: Vec3A| {
-            scene
-                .intersect(laser.origin, d.normalize(), f32::INFINITY)
-                .map(|h| h.1)
-        };
-        Ok(match self.settings.capture_type {
-            CaptureType::Single => {
-                let it = from_laser(laser.axes[2]).ok_or_else(|| {
-                    NlosError::prop(
-                        "projector",
-                        "to_world",
-                        "the laser does not point at the scene (its +z axis hits nothing)",
-                    )
-                })?;
-                vec![self.spot(it, false)]
-            }
-            CaptureType::Confocal => self.scan_spots(),
-            CaptureType::Exhaustive if self.settings.force_equal_illumination_scanning => {
-                self.scan_spots()
-            }
-            CaptureType::Exhaustive => {
-                // A virtual projector with the emitter's frame scans an LW×LH grid of directions
-                // (pixel-centred, Mitsuba's camera convention: uv (0,0) is local (+x, +y)).
-                let (lw, lh) = film.laser_scan.unwrap_or((1, 1));
-                let t = (self.settings.illumination_scan_fov.to_radians() / 2.0).tan() as f32;
-                let mut spots = Vec::with_capacity(lw * lh);
-                for ly in 0..lh {
-                    for lx in 0..lw {
-                        let (u, v) = ((lx as f32 + 0.5) / lw as f32, (ly as f32 + 0.5) / lh as f32);
-                        let d = laser.axes[0] * ((1.0 - 2.0 * u) * t)
-                            + laser.axes[1] * ((1.0 - 2.0 * v) * t)
-                            + laser.axes[2];
-                        spots.push(from_laser(d).map_or(Spot::DARK, |it| self.spot(it, true)));
-                    }
-                }
-                spots
-            }
-        })
+    if points.iter().all(Option::is_none) {
+        return Err(NlosError::prop(
+            "nlos_capture_meter",
+            "sensor_origin",
+            "no scan point is visible from the sensor origin",
+        ));
     }
+    Ok(points)
+}
 
-    /// Confocal / equal-grid exhaustive: a spot at every scan point, the laser re-aimed at each.
-    fn scan_spots(&self) -> Vec<Spot> {
-        self.sensor_targets
+/// The laser spots of the capture (one, one per scan point, or one per laser grid point).
+pub fn laser_spots(
+    scene: &Scene,
+    scan_points: &[Option<Interaction>],
+    mono: bool,
+) -> Result<Vec<Spot>> {
+    let nlos = scene.nlos()?;
+    let (laser, settings) = (&nlos.laser, &nlos.settings);
+    let lit = Illumination {
+        scene,
+        nlos,
+        bsdfs: scene.shape_bsdfs(mono),
+        irradiance: laser.irradiance.spectrum(mono),
+    };
+    let from_laser = |d: Vec3A| {
+        scene
+            .intersect(laser.origin, d.normalize(), f32::INFINITY)
+            .map(|h| h.1)
+    };
+    // Confocal / equal-grid exhaustive: a spot at every scan point, the laser re-aimed at each.
+    let at_scan_points = || -> Vec<Spot> {
+        scan_points
             .iter()
-            .map(|t| t.map_or(Spot::DARK, |it| self.spot(it, true)))
+            .map(|t| t.map_or(Spot::DARK, |it| lit.spot(it, true)))
             .collect()
-    }
+    };
+    Ok(match settings.capture_type {
+        CaptureType::Single => {
+            let it = from_laser(laser.axes[2]).ok_or_else(|| {
+                NlosError::prop(
+                    "projector",
+                    "to_world",
+                    "the laser does not point at the scene (its +z axis hits nothing)",
+                )
+            })?;
+            vec![lit.spot(it, false)]
+        }
+        CaptureType::Confocal => at_scan_points(),
+        CaptureType::Exhaustive if settings.force_equal_illumination_scanning => at_scan_points(),
+        CaptureType::Exhaustive => {
+            // A virtual projector with the emitter's frame scans an LW×LH grid of directions
+            // (pixel-centred, Mitsuba's camera convention: uv (0,0) is local (+x, +y)).
+            let (lw, lh) = scene.meter.film.laser_scan.unwrap_or((1, 1));
+            let t = (settings.illumination_scan_fov.to_radians() / 2.0).tan() as f32;
+            let mut spots = Vec::with_capacity(lw * lh);
+            for ly in 0..lh {
+                for lx in 0..lw {
+                    let (u, v) = ((lx as f32 + 0.5) / lw as f32, (ly as f32 + 0.5) / lh as f32);
+                    let d = laser.axes[0] * ((1.0 - 2.0 * u) * t)
+                        + laser.axes[1] * ((1.0 - 2.0 * v) * t)
+                        + laser.axes[2];
+                    spots.push(from_laser(d).map_or(Spot::DARK, |it| lit.spot(it, true)));
+                }
+            }
+            spots
+        }
+    })
+}
 
-    /// The NEE from a spot to the laser (spec §3.5), cached.
+/// What a spot's NEE needs.
+struct Illumination<'a> {
+    scene: &'a Scene,
+    nlos: &'a Nlos,
+    bsdfs: Vec<Bsdf<Spectrum>>,
+    irradiance: Spectrum,
+}
+
+impl Illumination<'_> {
+    /// The NEE from a spot to the laser (mitransient-model §3.5); `focused`: the laser re-aimed at it.
     fn spot(&self, it: Interaction, focused: bool) -> Spot {
-        let laser = self.laser;
+        let laser = &self.nlos.laser;
         let w = laser.origin - it.p;
         let dist = w.length();
         let cos = it.ns.dot(w / dist);
@@ -197,15 +173,14 @@ impl<'a> Capture<'a> {
         } else {
             laser.weight_at(it.p)
         };
-        let (o, d, tmax) = shadow_segment(&it, laser.origin);
-        let visible = cos > 0.0 && weight > 0.0 && self.scene.accel.unoccluded(o, d, 0.0, tmax);
-        let rho = self.rho[self.scene.shapes[it.shape as usize].bsdf];
+        let visible = cos > 0.0 && weight > 0.0 && self.scene.visible(&it, laser.origin);
+        let rho = self.bsdfs[it.shape as usize].albedo();
         let radiance = if visible {
             self.irradiance * rho * (weight * FRAC_1_PI * cos)
         } else {
             Spectrum::ZERO
         };
-        let last_leg = if self.settings.account_first_and_last_bounces {
+        let last_leg = if self.nlos.settings.account_first_and_last_bounces {
             dist as f64
         } else {
             0.0

@@ -6,7 +6,7 @@ use crate::math::Transform;
 use crate::props::{Colour, Props};
 use glam::{DMat4, Vec3A};
 
-/// Mitsuba's `projector` emitter, used as the NLOS laser (mitransient-nlos-spec §1.3).
+/// Mitsuba's `projector` emitter, used as the NLOS laser (mitransient-model §1).
 #[derive(Clone, Debug)]
 pub struct Projector {
     /// `to_world` as given (origin = laser position, local +z = aiming direction).

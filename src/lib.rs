@@ -1,18 +1,27 @@
 //! # nlos_rs
 //!
-//! Transient light transport for non-line-of-sight (NLOS) imaging: a Rust re-implementation of
-//! mitransient's `transient_nlos_path` (Royo et al. 2022) that takes the same scene descriptions and
-//! returns the same arrays, with mitransient's defects corrected.
+//! Transient light transport for non-line-of-sight (NLOS) imaging: mitransient's
+//! `transient_nlos_path` (Royo et al. 2022) and `transient_path` re-implemented, taking the same
+//! scene descriptions and returning the same arrays, with mitransient's defects corrected, plus the
+//! techniques of Tienda Hernando 2023 (Hidden Geometry Rejection Sampling, temporal kernel density
+//! estimation). docs/architecture.md walks through the flow; in dependency order:
 //!
-//! Module map: [`props`] (scene description trees) → [`xml`] / dicts → [`scene`] (shapes, laser,
-//! capture meter, camera) over [`geometry`] (primitives, BVH); [`emitter`] (laser, lights),
-//! [`camera`] (perspective), [`capture`] (NLOS scan points, laser spots),
-//! [`integrator`] (path sampling), [`film`] (time binning), [`render`] (parallel loop);
-//! [`sampling`] and [`math`] underneath. `python` holds the PyO3 binding, nothing else.
+//! * [`math`], [`error`], [`sampling`]: transforms, spectra and frames; the one error type; random
+//!   streams and warps.
+//! * [`props`] (a scene description as a property tree) ← [`xml`] (Mitsuba XML files).
+//! * [`geometry`] (primitives, meshes, the BVH), [`bsdf`] (one file per BSDF), [`film`] (grid, time
+//!   axis and the temporal kernels), [`emitter`] (laser, lights), [`sensor`] (capture meter, camera),
+//!   [`settings`] (integrator parameter tables).
+//! * [`scene`]: the loaded scene, built from props in `scene/build.rs`.
+//! * [`capture`]: scan points and laser spots of an NLOS capture.
+//! * [`integrator`]: the [`integrator::Tracer`]s (NLOS, HGRS, line of sight).
+//! * [`render`]: the parallel loop that runs a tracer into a film.
+//!
+//! `python` holds the PyO3 binding, which only converts.
 
 #![warn(missing_docs)]
 
-pub mod camera;
+pub mod bsdf;
 pub mod capture;
 pub mod emitter;
 pub mod error;
@@ -24,6 +33,8 @@ pub mod props;
 pub mod render;
 pub mod sampling;
 pub mod scene;
+pub mod sensor;
+pub mod settings;
 pub mod xml;
 
 #[cfg(feature = "python")]

@@ -145,6 +145,16 @@ impl Props {
         Ok(v)
     }
 
+    /// "−1 or a count" (depths and filters): −1 gives `None`, a value in `[min, u32::MAX)` gives
+    /// `Some`; anything else is an error naming the key.
+    pub fn optional_count(&self, key: &str, default: i64, min: i64) -> Result<Option<u32>> {
+        match self.int(key, default)? {
+            -1 => Ok(None),
+            v if v >= min && v < u32::MAX as i64 => Ok(Some(v as u32)),
+            v => Err(self.err(key, format!("must be -1 or an integer >= {min}, got {v}"))),
+        }
+    }
+
     /// Float property (an integer is accepted, as in Mitsuba).
     pub fn float(&self, key: &str, default: f64) -> Result<f64> {
         match self.take(key) {

@@ -1,14 +1,13 @@
-//! The render loop: every scan point's samples in parallel (rayon), accumulated into the transient
-//! film (mitransient-nlos-spec §3.8). Each pixel is rendered by one task from per-(seed, pixel,
+//! The render loop: every pixel's samples in parallel (rayon), traced by the scene's
+//! [`Tracer`] and accumulated into the transient film through its splatter (mitransient-model §3.8). Each pixel is rendered by one task from per-(seed, pixel,
 //! block) random streams, so results are bit-identical whatever the thread count. Progress and
 //! cancellation go through atomics so that a caller (the Python binding) can poll them.
 
-use crate::capture::Capture;
 use crate::error::{NlosError, Result};
-use crate::integrator::path::PathTracer;
+use crate::film::{Film, TemporalKernel};
+use crate::integrator::{NlosTracer, PathTracer, Splat, Tracer};
 use crate::sampling::Sampler;
-use crate::scene::Scene;
-use crate::scene::Setup;
+use crate::scene::{Scene, Setup};
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 
@@ -27,7 +26,7 @@ pub struct RenderOptions {
     /// One channel (`mono`) or three (`rgb`).
     pub mono: bool,
     /// Temporal kernel overriding the film's.
-    pub kernel: Option<crate::film::TemporalKernel>,
+    pub kernel: Option<TemporalKernel>,
 }
 
 /// A rendered capture in mitransient's layout.
@@ -52,12 +51,6 @@ pub struct Monitor {
     pub cancel: AtomicBool,
 }
 
-/// The path sampler of a scene's setup.
-enum Tracer<'a> {
-    Nlos(Capture<'a>),
-    Los(PathTracer<'a>),
-}
-
 /// Total samples a render will take (for progress bars).
 pub fn total_samples(scene: &Scene, opts: &RenderOptions) -> u64 {
     let f = &scene.meter.film;
@@ -70,23 +63,41 @@ pub fn render(scene: &Scene, opts: &RenderOptions, monitor: &Monitor) -> Result<
     if spp == 0 {
         return Err(NlosError::prop("render", "spp", "must be positive"));
     }
-    let seed = scene.meter.seed.wrapping_add(opts.seed);
     let mut film = scene.meter.film.clone();
     if let Some(k) = opts.kernel {
         film.kernel = k;
     }
-    let film = &film;
-    let splatter = film.splatter();
-    let tracer = match &scene.setup {
-        Setup::Nlos(_) => Tracer::Nlos(Capture::new(scene, opts.mono)?),
-        Setup::Los(los) => Tracer::Los(PathTracer::new(
+    match &scene.setup {
+        Setup::Nlos(_) => run(
+            &NlosTracer::new(scene, opts.mono)?,
+            &film,
             scene,
-            &los.settings,
-            &los.camera,
-            &los.lights,
-            opts.mono,
-        )?),
-    };
+            spp,
+            opts,
+            monitor,
+        ),
+        Setup::Los(los) => run(
+            &PathTracer::new(scene, los, opts.mono)?,
+            &film,
+            scene,
+            spp,
+            opts,
+            monitor,
+        ),
+    }
+}
+
+/// The loop over pixels and sample blocks, for one tracer.
+fn run(
+    tracer: &impl Tracer,
+    film: &Film,
+    scene: &Scene,
+    spp: u64,
+    opts: &RenderOptions,
+    monitor: &Monitor,
+) -> Result<Rendered> {
+    let seed = scene.meter.seed.wrapping_add(opts.seed);
+    let splatter = film.splatter();
     let c = if opts.mono { 1 } else { 3 };
     let (t, slots) = (film.temporal_bins, film.laser_slots());
     let pixel_len = slots * t * c;
@@ -102,14 +113,14 @@ pub fn render(scene: &Scene, opts: &RenderOptions, monitor: &Monitor) -> Result<
             .enumerate()
             .try_for_each(|(pixel, (buf, st))| {
                 let mut sum = [0.0f64; 3];
-                let mut splat = |(slot, opl, v): crate::integrator::Splat| {
+                let mut splat = |s: Splat| {
                     for k in 0..c {
-                        sum[k] += v[k] as f64;
+                        sum[k] += s.value[k] as f64;
                     }
-                    splatter.splat(opl, |bin, w| {
-                        let at = (slot * t + bin) * c;
+                    splatter.splat(s.opl, |bin, w| {
+                        let at = (s.slot * t + bin) * c;
                         for k in 0..c {
-                            buf[at + k] += v[k] * w;
+                            buf[at + k] += s.value[k] * w;
                         }
                     });
                 };
@@ -121,12 +132,7 @@ pub fn render(scene: &Scene, opts: &RenderOptions, monitor: &Monitor) -> Result<
                     let n = BLOCK.min(spp - start);
                     let mut rng = Sampler::new(seed, pixel as u64, start / BLOCK);
                     for _ in 0..n {
-                        match &tracer {
-                            Tracer::Nlos(cap) => cap.trace(pixel, &mut rng, &mut splat),
-                            Tracer::Los(pt) => {
-                                pt.trace(pixel, film.width, film.height, &mut rng, &mut splat)
-                            }
-                        }
+                        tracer.trace(pixel, &mut rng, &mut splat);
                     }
                     monitor.done.fetch_add(n, Ordering::Relaxed);
                     start += n;

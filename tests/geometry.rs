@@ -1,4 +1,4 @@
-//! The BVH wrapper against the obvhs pitfalls (shared/reference/obvhs-notes.md §6): watertight
+//! The BVH wrapper against obvhs' pitfalls (see src/geometry/bvh.rs): watertight
 //! hits on closed meshes, rays with -0.0 direction components, and agreement with brute force.
 
 use glam::Vec3A;

@@ -1,10 +1,10 @@
 //! Scene building, hidden-geometry sampling against its density, and render invariants.
 
 use glam::{DMat4, DVec3, Vec2};
-use nlos_rs::integrator::AreaSampler;
 use nlos_rs::props::{Props, Value};
 use nlos_rs::render::{Monitor, RenderOptions, render};
 use nlos_rs::sampling::Sampler;
+use nlos_rs::scene::AreaSampler;
 use nlos_rs::{NlosError, Scene};
 use std::path::Path;
 
@@ -244,7 +244,7 @@ fn exhaustive_layout_and_uv() {
 
 #[test]
 fn camera_rays_follow_mitsubas_convention() {
-    use nlos_rs::camera::Camera;
+    use nlos_rs::sensor::Camera;
     let mut cam = Props::new("perspective", None);
     let look = nlos_rs::math::look_at([0.0, 0.0, 3.9], [0.0; 3], [0.0, 1.0, 0.0]).expect("valid");
     cam.insert("fov", Value::Float(90.0)).unwrap();
@@ -262,11 +262,11 @@ fn camera_rays_follow_mitsubas_convention() {
     let (camera, meter) = Camera::from_props(&cam).expect("camera");
     assert_eq!((meter.film.width, meter.film.height), (4, 2));
     // Centre of the film: straight down the optical axis (world -z).
-    let (o, d, tmin, _) = camera.ray(Vec2::new(0.5, 0.5));
+    let nlos_rs::geometry::Ray { o, d, tmin, .. } = camera.ray(Vec2::new(0.5, 0.5));
     assert!((o.z - 3.9).abs() < 1e-6 && (d.z + 1.0).abs() < 1e-6 && (tmin - 0.5).abs() < 1e-6);
     // uv (0, 0) is the top-left corner: camera +x is world -x here ("left"), +y is up; fov 90° on x
     // gives tan 1 across x and 1/aspect = 0.5 across y.
-    let (_, d, tmin, _) = camera.ray(Vec2::new(0.0, 0.0));
+    let nlos_rs::geometry::Ray { d, tmin, .. } = camera.ray(Vec2::new(0.0, 0.0));
     let expect = glam::Vec3A::new(-1.0, 0.5, -1.0).normalize();
     assert!((d - expect).length() < 1e-6, "{d:?}");
     assert!((tmin - 0.5 / expect.z.abs()).abs() < 1e-5);

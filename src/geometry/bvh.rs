@@ -1,5 +1,5 @@
-//! The one module that talks to obvhs. It guards against the crate's known defects
-//! (shared/reference/obvhs-notes.md §6): directions are canonicalised so that no component is
+//! The one module that talks to obvhs (0.4). It guards against three behaviours of that crate:
+//! directions are canonicalised so that no component is
 //! `-0.0` (CwBvh would miss such rays), hits use our watertight primitive tests instead of obvhs'
 //! Möller–Trumbore ones (which leak through shared edges), and rays (nearly) parallel to an axis plane are
 //! traced by brute force: obvhs' node test clamps the entry distance to 1e-4, so it culls a box
@@ -40,7 +40,8 @@ pub struct Accel {
     slot_to_prim: Vec<u32>,
 }
 
-/// Turn `-0.0` components into `+0.0` (obvhs-notes §6.1); nothing else changes.
+/// Turn `-0.0` components into `+0.0` (CwBvh's node test misses rays with a `-0.0` component);
+/// nothing else changes.
 #[inline]
 pub fn canonical_dir(d: Vec3A) -> Vec3A {
     d + Vec3A::ZERO

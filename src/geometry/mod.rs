@@ -26,6 +26,19 @@ pub enum Prim {
     },
 }
 
+/// A ray `o + t d`, `t ∈ (tmin, tmax)`, with a unit direction.
+#[derive(Clone, Copy, Debug)]
+pub struct Ray {
+    /// Origin.
+    pub o: Vec3A,
+    /// Unit direction.
+    pub d: Vec3A,
+    /// Start of the valid range.
+    pub tmin: f32,
+    /// End of the valid range.
+    pub tmax: f32,
+}
+
 /// A ray hit before shading: distance, primitive index and its barycentrics (triangles).
 #[derive(Clone, Copy, Debug)]
 pub struct Hit {

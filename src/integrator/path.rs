@@ -4,59 +4,17 @@
 //! optical path length travelled so far, from the camera's pinhole (or from the first surface with
 //! `camera_unwarp`).
 
-use super::{AreaSampler, Splat, diffuse_f, max_depth, russian_roulette, temporal_filter};
-use crate::camera::Camera;
+use super::{Splat, Tracer, russian_roulette};
+use crate::bsdf::Bsdf;
 use crate::emitter::Light;
 use crate::error::{NlosError, Result};
-use crate::film::TemporalKernel;
-use crate::geometry::{Interaction, shadow_segment};
-use crate::math::{Frame, Spectrum};
-use crate::props::Props;
-use crate::sampling::{Sampler, square_to_cosine_hemisphere};
-use crate::scene::Scene;
+use crate::geometry::Interaction;
+use crate::math::Spectrum;
+use crate::sampling::Sampler;
+use crate::scene::{AreaSampler, Los, Scene};
+use crate::sensor::Camera;
+use crate::settings::PathSettings;
 use glam::{Vec2, Vec3A};
-use std::f32::consts::FRAC_1_PI;
-
-/// The parameters of `transient_path`.
-#[derive(Clone, Debug)]
-pub struct PathSettings {
-    /// Longest path in segments (Mitsuba's meaning: 1 = directly visible lights); `u32::MAX` for -1.
-    pub max_depth: u32,
-    /// Depth from which Russian roulette applies.
-    pub rr_depth: u32,
-    /// Measure time from the first surface the camera sees instead of from the pinhole.
-    pub camera_unwarp: bool,
-    /// Drop light seen directly by the camera.
-    pub discard_direct_light: bool,
-    /// `temporal_filter='gaussian'` with `gaussian_stddev` (bins).
-    pub temporal_kernel: Option<TemporalKernel>,
-}
-
-impl PathSettings {
-    /// Read the integrator's properties; unknown ones are rejected.
-    pub fn from_props(p: &Props) -> Result<Self> {
-        let plugin = p.plugin.as_str();
-        let max_depth = max_depth(p, 6)?;
-        let rr_depth = p.int("rr_depth", 5)?;
-        if rr_depth <= 0 || rr_depth >= u32::MAX as i64 {
-            return Err(NlosError::prop(plugin, "rr_depth", "must be > 0"));
-        }
-        let temporal_kernel = temporal_filter(p, 2.0)?;
-        // Accepted because mitransient accepts them; without an environment light they change nothing.
-        p.bool("hide_emitters", false)?;
-        p.int("block_size", 0)?;
-        p.int("samples_per_pass", -1)?;
-        let s = Self {
-            max_depth,
-            rr_depth: rr_depth as u32,
-            camera_unwarp: p.bool("camera_unwarp", false)?,
-            discard_direct_light: p.bool("discard_direct_light", false)?,
-            temporal_kernel,
-        };
-        p.finish()?;
-        Ok(s)
-    }
-}
 
 /// Power heuristic with exponent 2 (Mitsuba's `mis_weight`).
 #[inline]
@@ -81,26 +39,22 @@ pub struct PathTracer<'a> {
     scene: &'a Scene,
     settings: &'a PathSettings,
     camera: &'a Camera,
-    rho: Vec<Spectrum>,
+    /// Film size (pixels).
+    width: usize,
+    height: usize,
+    /// Each shape's BSDF.
+    bsdfs: Vec<Bsdf<Spectrum>>,
     emitters: Vec<Emitter>,
     /// Emitter index of each shape, if it emits.
     shape_emitter: Vec<Option<usize>>,
-    /// Output channels.
-    pub channels: usize,
 }
 
 impl<'a> PathTracer<'a> {
     /// Prepare a render in mono or rgb.
-    pub fn new(
-        scene: &'a Scene,
-        settings: &'a PathSettings,
-        camera: &'a Camera,
-        lights: &[Light],
-        mono: bool,
-    ) -> Result<Self> {
+    pub fn new(scene: &'a Scene, los: &'a Los, mono: bool) -> Result<Self> {
         let mut shape_emitter = vec![None; scene.shapes.len()];
-        let mut emitters = Vec::with_capacity(lights.len());
-        for light in lights {
+        let mut emitters = Vec::with_capacity(los.lights.len());
+        for light in &los.lights {
             emitters.push(match *light {
                 Light::Area { shape, radiance } => {
                     shape_emitter[shape] = Some(emitters.len());
@@ -121,19 +75,15 @@ impl<'a> PathTracer<'a> {
                 },
             });
         }
-        let rho = scene
-            .bsdfs
-            .iter()
-            .map(|b| b.reflectance.spectrum(mono))
-            .collect();
         Ok(Self {
             scene,
-            settings,
-            camera,
-            rho,
+            settings: &los.settings,
+            camera: &los.camera,
+            width: scene.meter.film.width,
+            height: scene.meter.film.height,
+            bsdfs: scene.shape_bsdfs(mono),
             emitters,
             shape_emitter,
-            channels: if mono { 1 } else { 3 },
         })
     }
 
@@ -156,7 +106,7 @@ impl<'a> PathTracer<'a> {
         &self,
         x: &Interaction,
         wi: Vec3A,
-        rho: Spectrum,
+        bsdf: &Bsdf<Spectrum>,
         beta: Spectrum,
         opl: f64,
         rng: &mut Sampler,
@@ -179,57 +129,54 @@ impl<'a> PathTracer<'a> {
                     return; // the back of a one-sided area light
                 }
                 let pdf = self.light_pdf(sampler, x.p, y.p, y.ng);
-                let wo = -w;
-                let bsdf_pdf = x.ns.dot(wo).max(0.0) * FRAC_1_PI;
-                (y.p, *radiance / pdf, mis(pdf, bsdf_pdf))
+                (y.p, *radiance / pdf, mis(pdf, bsdf.pdf(x.ns, -w)))
             }
         };
         let v = target - x.p;
         let dist = v.length();
-        let Some(f) = diffuse_f(rho, x.ns, wi, v / dist) else {
+        let Some(f) = bsdf.eval(x.ns, wi, v / dist) else {
             return;
         };
-        let (o, d, tmax) = shadow_segment(x, target);
-        if !self.scene.accel.unoccluded(o, d, 0.0, tmax) {
+        if !self.scene.visible(x, target) {
             return;
         }
-        out((0, opl + dist as f64, beta * f * le_over_pdf * mis_w));
+        out(Splat {
+            slot: 0,
+            opl: opl + dist as f64,
+            value: beta * f * le_over_pdf * mis_w,
+        });
     }
+}
 
+impl Tracer for PathTracer<'_> {
     /// Trace one camera path through pixel `pixel` (row-major), emitting its contributions.
-    pub fn trace(
-        &self,
-        pixel: usize,
-        width: usize,
-        height: usize,
-        rng: &mut Sampler,
-        out: &mut impl FnMut(Splat),
-    ) {
+    fn trace(&self, pixel: usize, rng: &mut Sampler, out: &mut impl FnMut(Splat)) {
         let st = self.settings;
+        let (width, height) = (self.width, self.height);
         let j = rng.next_2d();
         let uv = Vec2::new(
             ((pixel % width) as f32 + j.x) / width as f32,
             ((pixel / width) as f32 + j.y) / height as f32,
         );
-        let (mut o, mut d, mut tmin, mut tmax) = self.camera.ray(uv);
+        let mut ray = self.camera.ray(uv);
         let mut beta = Spectrum::ONE;
         let mut opl = 0.0f64;
         // The previous vertex and its BSDF sampling density, for MIS on emission hits.
         let mut prev: Option<(Vec3A, f32)> = None;
         let mut depth: u32 = 0;
         loop {
-            let Some(hit) = self.scene.accel.intersect(o, d, tmin, tmax) else {
+            let Some(hit) = self.scene.accel.intersect(ray.o, ray.d, ray.tmin, ray.tmax) else {
                 break;
             };
-            let it = self.scene.interaction(o, d, &hit);
-            let from = prev.map_or(o, |p| p.0);
+            let it = self.scene.interaction(ray.o, ray.d, &hit);
+            let from = prev.map_or(ray.o, |p| p.0);
             let seg = (it.p - from).length() as f64;
             opl += if depth == 0 && st.camera_unwarp {
                 0.0
             } else {
                 seg
             };
-            let wi = -d;
+            let wi = -ray.d;
             // ---- Emission found by the camera ray or by BSDF sampling
             if let Some(k) = self.shape_emitter[it.shape as usize] {
                 if let Emitter::Area { sampler, radiance } = &self.emitters[k] {
@@ -237,30 +184,35 @@ impl<'a> PathTracer<'a> {
                         let w = prev.map_or(1.0, |(px, bsdf_pdf)| {
                             mis(bsdf_pdf, self.light_pdf(sampler, px, it.p, it.ng))
                         });
-                        out((0, opl, beta * *radiance * w));
+                        out(Splat {
+                            slot: 0,
+                            opl,
+                            value: beta * *radiance * w,
+                        });
                     }
                 }
             }
             if depth.saturating_add(1) >= st.max_depth {
                 break;
             }
-            let rho = self.rho[self.scene.shapes[it.shape as usize].bsdf];
+            let bsdf = &self.bsdfs[it.shape as usize];
             // ---- Emitter sampling
-            self.sample_light(&it, wi, rho, beta, opl, rng, out);
-            // ---- BSDF sampling (cosine-weighted: weight ρ, pdf cosθ/π)
-            if it.ns.dot(wi) <= 0.0 {
+            self.sample_light(&it, wi, bsdf, beta, opl, rng, out);
+            // ---- BSDF sampling
+            let Some(s) = bsdf.sample(it.ns, wi, rng) else {
                 break;
-            }
-            let local = square_to_cosine_hemisphere(rng.next_2d());
-            let wo = Frame::new(it.ns).to_world(local);
-            beta *= rho;
+            };
+            beta *= s.weight;
             if !russian_roulette(&mut beta, depth, st.rr_depth, rng) {
                 break;
             }
-            prev = Some((it.p, local.z * FRAC_1_PI));
-            o = it.offset_origin(wo);
-            d = wo;
-            (tmin, tmax) = (0.0, f32::INFINITY);
+            prev = Some((it.p, s.pdf));
+            ray = crate::geometry::Ray {
+                o: it.offset_origin(s.wo),
+                d: s.wo,
+                tmin: 0.0,
+                tmax: f32::INFINITY,
+            };
             depth += 1;
         }
     }

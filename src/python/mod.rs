@@ -226,9 +226,9 @@ impl PyScene {
         let s = self.get();
         let Ok(n) = s.nlos() else { return "camera" };
         match n.settings.capture_type {
-            crate::integrator::CaptureType::Single => "single",
-            crate::integrator::CaptureType::Confocal => "confocal",
-            crate::integrator::CaptureType::Exhaustive => "exhaustive",
+            crate::settings::CaptureType::Single => "single",
+            crate::settings::CaptureType::Confocal => "confocal",
+            crate::settings::CaptureType::Exhaustive => "exhaustive",
         }
     }
     /// Laser grid (LW, LH) of an exhaustive film, else None.
@@ -315,10 +315,9 @@ impl PyScene {
     /// equal-grid exhaustive captures, where the laser is aimed.
     fn scan_points(&self) -> PyResult<Vec<Vec<[f32; 3]>>> {
         let s = self.get();
-        let cap = crate::capture::Capture::new(&s, true)?;
+        let points = crate::capture::scan_points(&s)?;
         let w = s.meter.film.width;
-        Ok(cap
-            .sensor_targets
+        Ok(points
             .chunks(w)
             .map(|row| {
                 row.iter()
@@ -331,13 +330,13 @@ impl PyScene {
     /// the scan grid (H, W, 3) for confocal, (LH, LW, 3) for exhaustive (NaN where the laser misses).
     fn laser_points(&self) -> PyResult<(Vec<Vec<[f32; 3]>>, Vec<Vec<[f32; 3]>>)> {
         let s = self.get();
-        let cap = crate::capture::Capture::new(&s, true)?;
-        let spots = cap.laser_spots()?;
+        let spots = crate::capture::laser_spots(&s, &crate::capture::scan_points(&s)?, true)?;
+        let settings = &s.nlos()?.settings;
         let f = &s.meter.film;
-        let w = match (cap.settings.capture_type, f.laser_scan) {
-            (crate::integrator::CaptureType::Single, _) => 1,
-            (crate::integrator::CaptureType::Exhaustive, Some((lw, _)))
-                if !cap.settings.force_equal_illumination_scanning =>
+        let w = match (settings.capture_type, f.laser_scan) {
+            (crate::settings::CaptureType::Single, _) => 1,
+            (crate::settings::CaptureType::Exhaustive, Some((lw, _)))
+                if !settings.force_equal_illumination_scanning =>
             {
                 lw
             }

@@ -5,9 +5,10 @@
 //! Mitsuba's `look_at`. Rays start at the pinhole and are clipped to [near_clip, far_clip] along the
 //! optical axis, as Mitsuba does.
 
+use super::Meter;
 use crate::error::{NlosError, Result};
+use crate::geometry::Ray;
 use crate::props::Props;
-use crate::scene::Meter;
 use glam::{Vec2, Vec3A};
 
 /// A pinhole camera.
@@ -106,9 +107,9 @@ impl Camera {
         Ok((cam, meter))
     }
 
-    /// The ray through film position uv: origin, unit direction and the (tmin, tmax) clip range.
+    /// The ray through film position uv, clipped to (near, far).
     #[inline]
-    pub fn ray(&self, uv: Vec2) -> (Vec3A, Vec3A, f32, f32) {
+    pub fn ray(&self, uv: Vec2) -> Ray {
         let local = Vec3A::new(
             (1.0 - 2.0 * uv.x) * self.tan_half_fov_x,
             (1.0 - 2.0 * uv.y) * self.tan_half_fov_x / self.aspect,
@@ -117,11 +118,11 @@ impl Camera {
         let inv_len = local.length_recip();
         let d = (self.axes[0] * local.x + self.axes[1] * local.y + self.axes[2]) * inv_len;
         // Along a unit direction, the optical-axis depth is t·(z/|local|).
-        (
-            self.origin,
+        Ray {
+            o: self.origin,
             d,
-            self.clip[0] / inv_len,
-            self.clip[1] / inv_len,
-        )
+            tmin: self.clip[0] / inv_len,
+            tmax: self.clip[1] / inv_len,
+        }
     }
 }

@@ -1,0 +1,101 @@
+//! BSDFs, one file per Mitsuba plugin. A BSDF is read from the scene with its spectral parameters
+//! as given ([`Bsdf<Colour>`]) and resolved for a render's variant, mono or rgb
+//! ([`Bsdf<Spectrum>`], via [`Bsdf::resolve`]); the tracers evaluate and sample the resolved form.
+//!
+//! Conventions (Mitsuba's): `wi` points towards where light goes (the previous vertex), `wo` towards
+//! where it comes from; `eval` includes the cosine at `wo`; directions and the shading normal `ns`
+//! are in world space.
+
+pub mod diffuse;
+
+pub use diffuse::Diffuse;
+
+use crate::error::{NlosError, Result};
+use crate::math::Spectrum;
+use crate::props::{Colour, Props};
+use crate::sampling::Sampler;
+use glam::Vec3A;
+
+/// A BSDF, with spectral parameters of type `S` ([`Colour`] as read, [`Spectrum`] to render).
+#[derive(Clone, Debug)]
+pub enum Bsdf<S> {
+    /// `diffuse`: Lambertian.
+    Diffuse(Diffuse<S>),
+}
+
+/// The plugin names [`Bsdf::from_props`] reads.
+pub const PLUGINS: [&str; 1] = ["diffuse"];
+
+/// A sampled direction and its weight.
+#[derive(Clone, Copy, Debug)]
+pub struct BsdfSample {
+    /// The sampled direction (world space).
+    pub wo: Vec3A,
+    /// f·cos / pdf.
+    pub weight: Spectrum,
+    /// Solid-angle density of `wo`.
+    pub pdf: f32,
+}
+
+impl Bsdf<Colour> {
+    /// Mitsuba's default BSDF: diffuse with reflectance 0.5.
+    pub const DEFAULT: Self = Bsdf::Diffuse(Diffuse {
+        reflectance: Colour::Uniform(0.5),
+    });
+
+    /// Read a BSDF plugin (one of [`PLUGINS`]).
+    pub fn from_props(p: &Props) -> Result<Self> {
+        match p.plugin.as_str() {
+            "diffuse" => Ok(Bsdf::Diffuse(Diffuse::from_props(p)?)),
+            other => Err(NlosError::prop(
+                other,
+                "type",
+                format!("bsdf '{other}' is not supported (supported: {PLUGINS:?})"),
+            )),
+        }
+    }
+
+    /// The BSDF with its parameters resolved for a mono or rgb render.
+    pub fn resolve(&self, mono: bool) -> Bsdf<Spectrum> {
+        match self {
+            Bsdf::Diffuse(d) => Bsdf::Diffuse(Diffuse {
+                reflectance: d.reflectance.spectrum(mono),
+            }),
+        }
+    }
+}
+
+impl Bsdf<Spectrum> {
+    /// f(wi, wo)·cos θ_o, `None` where it is zero.
+    #[inline]
+    pub fn eval(&self, ns: Vec3A, wi: Vec3A, wo: Vec3A) -> Option<Spectrum> {
+        match self {
+            Bsdf::Diffuse(d) => d.eval(ns, wi, wo),
+        }
+    }
+
+    /// Sample `wo` given `wi`; `None` if no direction can be sampled (e.g. `wi` below the surface).
+    #[inline]
+    pub fn sample(&self, ns: Vec3A, wi: Vec3A, rng: &mut Sampler) -> Option<BsdfSample> {
+        match self {
+            Bsdf::Diffuse(d) => d.sample(ns, wi, rng),
+        }
+    }
+
+    /// Solid-angle density with which [`Bsdf::sample`] picks `wo`.
+    #[inline]
+    pub fn pdf(&self, ns: Vec3A, wo: Vec3A) -> f32 {
+        match self {
+            Bsdf::Diffuse(d) => d.pdf(ns, wo),
+        }
+    }
+
+    /// The radiance a view-independent BSDF reflects per unit incident irradiance·π (its albedo ρ),
+    /// for caching a laser spot's next-event estimate once for every path that reaches it.
+    #[inline]
+    pub fn albedo(&self) -> Spectrum {
+        match self {
+            Bsdf::Diffuse(d) => d.reflectance,
+        }
+    }
+}

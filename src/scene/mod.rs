@@ -1,0 +1,182 @@
+//! A loaded scene: shapes and their primitives, BSDFs, the BVH, the sensor's [`Meter`] and what
+//! the scene measures ([`Setup`]: an NLOS capture as mitransient describes it, mitransient-model §1,
+//! or a line-of-sight camera). Built from a [`crate::props::Props`] tree in [`build`]; uniform
+//! sampling of its surfaces is [`AreaSampler`].
+
+pub mod area_sampler;
+mod build;
+
+pub use area_sampler::AreaSampler;
+
+use crate::bsdf::Bsdf;
+use crate::emitter::{Light, Projector};
+use crate::error::{NlosError, Result};
+use crate::geometry::{Hit, Interaction, Prim, bvh::Accel, shadow_segment};
+use crate::math::{Spectrum, Transform, look_at};
+use crate::props::Colour;
+use crate::sensor::{Camera, Meter};
+use crate::settings::{NlosSettings, PathSettings};
+use glam::{Vec2, Vec3A};
+
+/// A shape: its primitives, BSDF and area.
+#[derive(Clone, Debug)]
+pub struct Shape {
+    /// Id (dict key or XML id; may be empty).
+    pub id: String,
+    /// Plugin type (`obj`, `rectangle`, ...).
+    pub plugin: String,
+    /// Index into [`Scene::bsdfs`].
+    pub bsdf: usize,
+    /// Total surface area.
+    pub area: f64,
+    /// Its primitives, as a range of [`Scene::prims`].
+    pub prims: std::ops::Range<usize>,
+    /// For a `rectangle`, its `to_world` (the relay-wall grid is defined through it).
+    pub rectangle: Option<Transform>,
+}
+
+/// What a scene measures.
+#[derive(Clone)]
+pub enum Setup {
+    /// An NLOS capture: relay wall with an `nlos_capture_meter`, a `projector` laser,
+    /// `transient_nlos_path(_rs)`.
+    Nlos(Nlos),
+    /// A line-of-sight render: `perspective` camera, `area`/`point` lights, `transient_path`.
+    Los(Los),
+}
+
+/// The NLOS part of a scene.
+#[derive(Clone)]
+pub struct Nlos {
+    /// Index of the relay wall (the shape owning the capture meter).
+    pub relay_wall: usize,
+    /// The laser.
+    pub laser: Projector,
+    /// Integrator settings.
+    pub settings: NlosSettings,
+}
+
+/// The line-of-sight part of a scene.
+#[derive(Clone)]
+pub struct Los {
+    /// The camera.
+    pub camera: Camera,
+    /// The lights.
+    pub lights: Vec<Light>,
+    /// Integrator settings.
+    pub settings: PathSettings,
+}
+
+/// A loaded scene.
+#[derive(Clone)]
+pub struct Scene {
+    /// Shapes in declaration order.
+    pub shapes: Vec<Shape>,
+    /// BSDFs, as read.
+    pub bsdfs: Vec<Bsdf<Colour>>,
+    /// World-space primitives in scene order.
+    pub prims: Vec<Prim>,
+    /// Owning shape of each primitive.
+    pub prim_shape: Vec<u32>,
+    /// Per-vertex shading normals of triangles (None = flat).
+    pub prim_normals: Vec<Option<[Vec3A; 3]>>,
+    /// Normal orientation per shape (`flip_normals`).
+    pub shape_flip: Vec<bool>,
+    /// BVH over `prims`.
+    pub accel: std::sync::Arc<Accel>,
+    /// Samples, seed and film of the sensor (capture meter or camera).
+    pub meter: Meter,
+    /// NLOS capture or line-of-sight camera.
+    pub setup: Setup,
+}
+
+impl Scene {
+    /// The NLOS part, or an error naming what the caller wanted.
+    pub fn nlos(&self) -> Result<&Nlos> {
+        match &self.setup {
+            Setup::Nlos(n) => Ok(n),
+            Setup::Los(_) => Err(NlosError::Scene(
+                "this is a line-of-sight (transient_path) scene, not an NLOS capture".into(),
+            )),
+        }
+    }
+
+    /// Each shape's BSDF resolved for a mono or rgb render, indexed by shape.
+    pub fn shape_bsdfs(&self, mono: bool) -> Vec<Bsdf<Spectrum>> {
+        self.shapes
+            .iter()
+            .map(|s| self.bsdfs[s.bsdf].resolve(mono))
+            .collect()
+    }
+
+    /// The surface interaction of a hit.
+    pub fn interaction(&self, o: Vec3A, d: Vec3A, hit: &Hit) -> Interaction {
+        let i = hit.prim as usize;
+        let (p, ng) = self.prims[i].surface(o, d, hit);
+        self.surface_point(i, p, ng, hit.b)
+    }
+
+    /// The interaction at point `p` of primitive `i` (geometric normal `ng`, barycentrics `b` for
+    /// triangles): shading normal interpolated from vertex normals, `flip_normals` applied.
+    pub fn surface_point(&self, i: usize, p: Vec3A, ng: Vec3A, b: [f32; 2]) -> Interaction {
+        let ns = self.prim_normals[i].map_or(ng, |n| {
+            (n[0] * (1.0 - b[0] - b[1]) + n[1] * b[0] + n[2] * b[1]).normalize_or(ng)
+        });
+        let shape = self.prim_shape[i];
+        let s = if self.shape_flip[shape as usize] {
+            -1.0
+        } else {
+            1.0
+        };
+        Interaction {
+            p,
+            ng: ng * s,
+            ns: ns * s,
+            shape,
+        }
+    }
+
+    /// Closest surface along a unit-direction ray, with its distance.
+    #[inline]
+    pub fn intersect(&self, o: Vec3A, d: Vec3A, tmax: f32) -> Option<(f32, Interaction)> {
+        let hit = self.accel.intersect(o, d, 0.0, tmax)?;
+        Some((hit.t, self.interaction(o, d, &hit)))
+    }
+
+    /// Whether the point `target` is visible from the surface point `x` (a shadow ray from `x`,
+    /// offset off its surface, ending just short of `target`).
+    #[inline]
+    pub fn visible(&self, x: &Interaction, target: Vec3A) -> bool {
+        let (o, d, tmax) = shadow_segment(x, target);
+        self.accel.unoccluded(o, d, 0.0, tmax)
+    }
+
+    /// The relay-wall point of a uv in [0, 1]² (`rectangle.sample_position`: to_world·(2u−1, 2v−1, 0)).
+    pub fn relay_wall_point(&self, uv: Vec2) -> Result<(Vec3A, Vec3A)> {
+        let wall = self.nlos()?.relay_wall;
+        let t = self.shapes[wall].rectangle.unwrap_or(Transform::IDENTITY);
+        let p = t.point(Vec3A::new(2.0 * uv.x - 1.0, 2.0 * uv.y - 1.0, 0.0));
+        let s = if self.shape_flip[wall] { -1.0 } else { 1.0 };
+        Ok((p, t.normal(Vec3A::Z) * s))
+    }
+
+    /// Aim the laser at a 3D point from its current origin (`mitr.nlos.focus_emitter_at_relay_wall_3dpoint`).
+    pub fn focus_laser_at(&mut self, target: Vec3A) -> Result<()> {
+        let Setup::Nlos(nlos) = &mut self.setup else {
+            return Err(NlosError::Scene(
+                "this is a line-of-sight scene: it has no laser to aim".into(),
+            ));
+        };
+        let o = nlos.laser.origin.as_dvec3().to_array();
+        let m = look_at(o, target.as_dvec3().to_array(), [0.0, 1.0, 0.0]).ok_or_else(|| {
+            NlosError::prop(
+                "projector",
+                "to_world",
+                "cannot aim the laser at its own origin",
+            )
+        })?;
+        nlos.laser
+            .set_to_world(m)
+            .map_err(|e| NlosError::prop("projector", "to_world", e))
+    }
+}

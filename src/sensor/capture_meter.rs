@@ -1,0 +1,28 @@
+//! `nlos_capture_meter` (mitransient-model §1): the SPAD of an NLOS capture, nested in the relay
+//! wall. It looks from `sensor_origin` through each scan point of the wall.
+
+use super::Meter;
+use crate::error::Result;
+use crate::props::Props;
+use glam::Vec3A;
+
+impl Meter {
+    /// An `nlos_capture_meter` (nested in the relay wall).
+    pub fn from_capture_meter(p: &Props) -> Result<Self> {
+        let o = p.vec3("sensor_origin", [0.0; 3])?;
+        let mut meter = Self::from_sensor(p, Vec3A::new(o[0] as f32, o[1] as f32, o[2] as f32))?;
+        if p.has("account_first_and_last_bounces") {
+            // tal still writes it here; mitransient 1.3.1 warns and ignores it, and so do we.
+            p.bool("account_first_and_last_bounces", false)?;
+            meter.warnings.push(
+                "nlos_capture_meter: 'account_first_and_last_bounces' is deprecated and ignored here; set it on the transient_nlos_path integrator".to_string(),
+            );
+        }
+        for key in ["shutter_open", "shutter_close"] {
+            // mitransient adds shutter_open (seconds) to the optical path (metres): a defect we do not copy.
+            p.float(key, 0.0)?;
+        }
+        p.finish()?;
+        Ok(meter)
+    }
+}

@@ -1,0 +1,76 @@
+//! Sensors: what measures the scene. Every sensor carries a [`Meter`] (its position, sampler and
+//! film); the NLOS `nlos_capture_meter` is read in [`capture_meter`], the line-of-sight pinhole
+//! `perspective` camera in [`perspective`].
+
+pub mod capture_meter;
+pub mod perspective;
+
+pub use perspective::Camera;
+
+use crate::error::{NlosError, Result};
+use crate::film::Film;
+use crate::props::{Props, Value};
+use glam::Vec3A;
+
+/// What every sensor has: where it sits, how many samples it takes and its film.
+#[derive(Clone, Debug)]
+pub struct Meter {
+    /// Sensor origin s.
+    pub origin: Vec3A,
+    /// Samples per scan point (the sampler's `sample_count`).
+    pub spp: u64,
+    /// The sampler's `seed`.
+    pub seed: u64,
+    /// Film.
+    pub film: Film,
+    /// Things accepted but ignored, for the caller to show.
+    pub warnings: Vec<String>,
+}
+
+impl Meter {
+    /// The sampler and film nested in any sensor; the caller reads its other keys and finishes `p`.
+    pub fn from_sensor(p: &Props, origin: Vec3A) -> Result<Self> {
+        let plugin = p.plugin.as_str();
+        let (mut spp, mut seed, mut film) = (4, 0, None);
+        for (key, v) in p.objects() {
+            match v {
+                Value::Object(s) if s.plugin == "independent" => {
+                    spp = s.int_in("sample_count", 4, 1, i64::MAX)? as u64;
+                    seed = s.int_in("seed", 0, 0, u32::MAX as i64)? as u64;
+                    s.finish()?;
+                }
+                Value::Object(s)
+                    if matches!(
+                        s.plugin.as_str(),
+                        "stratified" | "multijitter" | "orthogonal" | "ldsampler"
+                    ) =>
+                {
+                    return Err(NlosError::prop(
+                        plugin,
+                        &key,
+                        format!("sampler '{}' is not supported: use 'independent'", s.plugin),
+                    ));
+                }
+                Value::Object(f) if f.plugin.ends_with("film") => {
+                    film = Some(Film::from_props(&f)?)
+                }
+                _ => {
+                    return Err(NlosError::prop(
+                        plugin,
+                        &key,
+                        "unexpected nested object (a sampler and a film)",
+                    ));
+                }
+            }
+        }
+        let film = film
+            .ok_or_else(|| NlosError::prop(plugin, "film", "missing (a 'transient_hdr_film')"))?;
+        Ok(Self {
+            origin,
+            spp,
+            seed,
+            film,
+            warnings: Vec::new(),
+        })
+    }
+}
