@@ -83,7 +83,7 @@ impl Projector {
     pub fn set_to_world(&mut self, m: DMat4) -> std::result::Result<(), String> {
         let t = Transform::from_dmat4(m).ok_or("must be an invertible affine 4x4 matrix")?;
         let axes = [Vec3A::X, Vec3A::Y, Vec3A::Z].map(|a| t.vector(a).normalize_or_zero());
-        if axes.iter().any(|a| *a == Vec3A::ZERO) {
+        if axes.contains(&Vec3A::ZERO) {
             return Err("has a degenerate axis".into());
         }
         self.to_world = m;

@@ -196,12 +196,12 @@ impl Props {
 
     /// `to_world`-like transform property (identity if absent).
     pub fn transform(&self, key: &str) -> Result<Transform> {
-        Ok(Transform::from_dmat4(self.matrix(key)?).ok_or_else(|| {
+        Transform::from_dmat4(self.matrix(key)?).ok_or_else(|| {
             self.err(
                 key,
                 "must be an invertible affine 4x4 matrix (last row 0 0 0 1)",
             )
-        })?)
+        })
     }
 
     /// Raw 4×4 matrix property (identity if absent).

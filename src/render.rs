@@ -114,8 +114,8 @@ fn run(
             .try_for_each(|(pixel, (buf, st))| {
                 let mut sum = [0.0f64; 3];
                 let mut splat = |s: Splat| {
-                    for k in 0..c {
-                        sum[k] += s.value[k] as f64;
+                    for (k, acc) in sum.iter_mut().enumerate().take(c) {
+                        *acc += s.value[k] as f64;
                     }
                     splatter.splat(s.opl, |bin, w| {
                         let at = (s.slot * t + bin) * c;

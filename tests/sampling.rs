@@ -131,7 +131,7 @@ fn discrete_matches_pmf() {
     assert!(chi2_z(&obs, &exp) < Z_CRIT, "discrete distribution");
     // The rescaled number is itself uniform (it is reused to place the point).
     assert!(
-        chi2_z(&reuse, &vec![N as f64 / 10.0; 10]) < Z_CRIT,
+        chi2_z(&reuse, &[N as f64 / 10.0; 10]) < Z_CRIT,
         "sample_reuse remainder"
     );
 }

@@ -39,10 +39,10 @@ impl Mesh {
         if !self.positions.iter().all(|p| p.is_finite()) {
             return Err(mesh_err(path, "has non-finite vertex positions"));
         }
-        if let Some(ns) = &self.normals {
-            if ns.len() != n || !ns.iter().all(|v| v.is_finite()) {
-                return Err(mesh_err(path, "has malformed vertex normals"));
-            }
+        if let Some(ns) = &self.normals
+            && (ns.len() != n || !ns.iter().all(|v| v.is_finite()))
+        {
+            return Err(mesh_err(path, "has malformed vertex normals"));
         }
         let area: f32 = self.triangles.iter().map(|t| self.area(t)).sum();
         if !(area > 0.0) {

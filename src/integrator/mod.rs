@@ -14,6 +14,7 @@ pub use path::PathTracer;
 use crate::geometry::Interaction;
 use crate::math::Spectrum;
 use crate::sampling::Sampler;
+use glam::Vec3A;
 
 /// One contribution of a path: its value, optical path length and laser slot (exhaustive captures;
 /// 0 otherwise). The film's splatter spreads it over time bins.
@@ -36,6 +37,20 @@ pub struct Step {
     pub dist: f32,
     /// f·cos/pdf of the step (including any geometry term of an area-measure sample).
     pub weight: Spectrum,
+}
+
+/// A path at a surface vertex: where it is, the direction back along the path, its throughput and
+/// the optical path length travelled so far.
+#[derive(Clone, Copy, Debug)]
+pub struct Vertex {
+    /// The surface point.
+    pub it: Interaction,
+    /// Unit direction towards the previous vertex.
+    pub wi: Vec3A,
+    /// Throughput β.
+    pub beta: Spectrum,
+    /// Optical path length so far.
+    pub opl: f64,
 }
 
 /// A path sampler for one pixel of a film.

@@ -8,7 +8,7 @@
 //! instead: hidden-geometry sampling tests visibility, the 50/50 technique choice does not double
 //! the estimate, and the capture's time origin ignores the shutter. See docs/compatibility.md.
 
-use super::{Splat, Step, Tracer, hgrs, russian_roulette};
+use super::{Splat, Step, Tracer, Vertex, hgrs, russian_roulette};
 use crate::bsdf::Bsdf;
 use crate::capture::{Capture, Spot};
 use crate::emitter::Projector;
@@ -72,19 +72,11 @@ impl<'a> NlosTracer<'a> {
         &self.bsdfs[x.shape as usize]
     }
 
-    /// Laser sampling (mitransient-model §3.4): connect vertex `x` (incoming direction `wi`,
-    /// throughput `beta`, path length `opl`) to the laser spot, whose NEE is cached in `spot`.
+    /// Laser sampling (mitransient-model §3.4): connect the path vertex `v` to the laser spot,
+    /// whose NEE is cached in `spot`.
     #[inline]
-    fn connect_spot(
-        &self,
-        x: &Interaction,
-        wi: Vec3A,
-        beta: Spectrum,
-        opl: f64,
-        spot: &Spot,
-        slot: usize,
-        out: &mut impl FnMut(Splat),
-    ) {
+    fn connect_spot(&self, v: &Vertex, spot: &Spot, slot: usize, out: &mut impl FnMut(Splat)) {
+        let (x, wi, beta, opl) = (&v.it, v.wi, v.beta, v.opl);
         if spot.radiance == Spectrum::ZERO {
             return;
         }
@@ -112,14 +104,8 @@ impl<'a> NlosTracer<'a> {
     /// Next-event estimation straight to the projector (mitransient-model §3.5), used without
     /// laser sampling.
     #[inline]
-    fn nee_laser(
-        &self,
-        x: &Interaction,
-        wi: Vec3A,
-        beta: Spectrum,
-        opl: f64,
-        out: &mut impl FnMut(Splat),
-    ) {
+    fn nee_laser(&self, v: &Vertex, out: &mut impl FnMut(Splat)) {
+        let (x, wi, beta, opl) = (&v.it, v.wi, v.beta, v.opl);
         let weight = self.laser.weight_at(x.p);
         if weight == 0.0 {
             return;
@@ -191,25 +177,17 @@ impl<'a> NlosTracer<'a> {
 
     /// Emitter sampling at a vertex: laser sampling to the capture's spot(s), or NEE to the laser.
     #[inline]
-    fn emitter_sampling(
-        &self,
-        pixel: usize,
-        x: &Interaction,
-        wi: Vec3A,
-        beta: Spectrum,
-        opl: f64,
-        out: &mut impl FnMut(Splat),
-    ) {
+    fn emitter_sampling(&self, pixel: usize, v: &Vertex, out: &mut impl FnMut(Splat)) {
         if !self.settings.laser_sampling {
-            return self.nee_laser(x, wi, beta, opl, out);
+            return self.nee_laser(v, out);
         }
         let spots = &self.capture.spots;
         match self.settings.capture_type {
-            CaptureType::Single => self.connect_spot(x, wi, beta, opl, &spots[0], 0, out),
-            CaptureType::Confocal => self.connect_spot(x, wi, beta, opl, &spots[pixel], 0, out),
+            CaptureType::Single => self.connect_spot(v, &spots[0], 0, out),
+            CaptureType::Confocal => self.connect_spot(v, &spots[pixel], 0, out),
             CaptureType::Exhaustive => {
                 for (slot, spot) in spots.iter().enumerate() {
-                    self.connect_spot(x, wi, beta, opl, spot, slot, out);
+                    self.connect_spot(v, spot, slot, out);
                 }
             }
         }
@@ -242,7 +220,8 @@ impl Tracer for NlosTracer<'_> {
             }
             // ---- Emitter sampling
             if st.keep(depth + offset) {
-                self.emitter_sampling(pixel, &it, wi, beta, opl, out);
+                let v = Vertex { it, wi, beta, opl };
+                self.emitter_sampling(pixel, &v, out);
             }
             // No later vertex can pass filter_bounces: stop early (changes no result).
             if st.filter_depth.is_some_and(|f| depth + 1 + offset > f) {

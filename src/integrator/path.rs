@@ -4,11 +4,11 @@
 //! optical path length travelled so far, from the camera's pinhole (or from the first surface with
 //! `camera_unwarp`).
 
-use super::{Splat, Tracer, russian_roulette};
+use super::{Splat, Tracer, Vertex, russian_roulette};
 use crate::bsdf::Bsdf;
 use crate::emitter::Light;
 use crate::error::{NlosError, Result};
-use crate::geometry::Interaction;
+use crate::geometry::Ray;
 use crate::math::Spectrum;
 use crate::sampling::Sampler;
 use crate::scene::{AreaSampler, Los, Scene};
@@ -104,14 +104,12 @@ impl<'a> PathTracer<'a> {
     #[inline]
     fn sample_light(
         &self,
-        x: &Interaction,
-        wi: Vec3A,
+        path: &Vertex,
         bsdf: &Bsdf<Spectrum>,
-        beta: Spectrum,
-        opl: f64,
         rng: &mut Sampler,
         out: &mut impl FnMut(Splat),
     ) {
+        let (x, wi, beta, opl) = (&path.it, path.wi, path.beta, path.opl);
         let n = self.emitters.len();
         let k = ((rng.next_1d() * n as f32) as usize).min(n - 1);
         let (target, le_over_pdf, mis_w) = match &self.emitters[k] {
@@ -164,10 +162,7 @@ impl Tracer for PathTracer<'_> {
         // The previous vertex and its BSDF sampling density, for MIS on emission hits.
         let mut prev: Option<(Vec3A, f32)> = None;
         let mut depth: u32 = 0;
-        loop {
-            let Some(hit) = self.scene.accel.intersect(ray.o, ray.d, ray.tmin, ray.tmax) else {
-                break;
-            };
+        while let Some(hit) = self.scene.accel.intersect(ray.o, ray.d, ray.tmin, ray.tmax) {
             let it = self.scene.interaction(ray.o, ray.d, &hit);
             let from = prev.map_or(ray.o, |p| p.0);
             let seg = (it.p - from).length() as f64;
@@ -178,26 +173,26 @@ impl Tracer for PathTracer<'_> {
             };
             let wi = -ray.d;
             // ---- Emission found by the camera ray or by BSDF sampling
-            if let Some(k) = self.shape_emitter[it.shape as usize] {
-                if let Emitter::Area { sampler, radiance } = &self.emitters[k] {
-                    if it.ns.dot(wi) > 0.0 && !(depth == 0 && st.discard_direct_light) {
-                        let w = prev.map_or(1.0, |(px, bsdf_pdf)| {
-                            mis(bsdf_pdf, self.light_pdf(sampler, px, it.p, it.ng))
-                        });
-                        out(Splat {
-                            slot: 0,
-                            opl,
-                            value: beta * *radiance * w,
-                        });
-                    }
-                }
+            if let Some(k) = self.shape_emitter[it.shape as usize]
+                && let Emitter::Area { sampler, radiance } = &self.emitters[k]
+                && it.ns.dot(wi) > 0.0
+                && !(depth == 0 && st.discard_direct_light)
+            {
+                let w = prev.map_or(1.0, |(px, bsdf_pdf)| {
+                    mis(bsdf_pdf, self.light_pdf(sampler, px, it.p, it.ng))
+                });
+                out(Splat {
+                    slot: 0,
+                    opl,
+                    value: beta * *radiance * w,
+                });
             }
             if depth.saturating_add(1) >= st.max_depth {
                 break;
             }
             let bsdf = &self.bsdfs[it.shape as usize];
             // ---- Emitter sampling
-            self.sample_light(&it, wi, bsdf, beta, opl, rng, out);
+            self.sample_light(&Vertex { it, wi, beta, opl }, bsdf, rng, out);
             // ---- BSDF sampling
             let Some(s) = bsdf.sample(it.ns, wi, rng) else {
                 break;
@@ -207,7 +202,7 @@ impl Tracer for PathTracer<'_> {
                 break;
             }
             prev = Some((it.p, s.pdf));
-            ray = crate::geometry::Ray {
+            ray = Ray {
                 o: it.offset_origin(s.wo),
                 d: s.wo,
                 tmin: 0.0,

@@ -122,21 +122,22 @@ fn value(plugin: &str, key: &str, v: &Bound<'_, PyAny>) -> PyResult<Value> {
             _ => Ok(Value::Object(object(&ty, None, d)?)),
         };
     }
-    if let Some(n) = numbers(v) {
-        if n.len() == 3 {
-            return Ok(Value::Vec3([n[0], n[1], n[2]]));
-        }
+    if let Some(n) = numbers(v)
+        && n.len() == 3
+    {
+        return Ok(Value::Vec3([n[0], n[1], n[2]]));
     }
     // A 4×4 matrix as nested lists.
     let rows: Option<Vec<Vec<f64>>> = v
         .cast::<PyList>()
         .ok()
         .and_then(|l| l.iter().map(|r| numbers(&r)).collect());
-    if let Some(rows) = rows {
-        if rows.len() == 4 && rows.iter().all(|r| r.len() == 4) {
-            let flat: Vec<f64> = rows.concat();
-            return Ok(Value::Matrix(DMat4::from_cols_slice(&flat).transpose()));
-        }
+    if let Some(rows) = rows
+        && rows.len() == 4
+        && rows.iter().all(|r| r.len() == 4)
+    {
+        let flat: Vec<f64> = rows.concat();
+        return Ok(Value::Matrix(DMat4::from_cols_slice(&flat).transpose()));
     }
     Err(bad(
         plugin,
@@ -168,10 +169,10 @@ fn object(plugin: &str, id: Option<String>, d: &Bound<'_, PyDict>) -> PyResult<P
         }
         let mut val = value(plugin, &key, &v)?;
         // Top-level objects of a scene take their dict key as id (as mi.load_dict does).
-        if plugin == "scene" {
-            if let Value::Object(o) = &mut val {
-                o.id.get_or_insert_with(|| key.clone());
-            }
+        if plugin == "scene"
+            && let Value::Object(o) = &mut val
+        {
+            o.id.get_or_insert_with(|| key.clone());
         }
         props.insert(key, val)?;
     }
@@ -328,7 +329,7 @@ impl PyScene {
     }
     /// Illuminated wall points and their normals as nested lists: (1, 1, 3) for a single capture,
     /// the scan grid (H, W, 3) for confocal, (LH, LW, 3) for exhaustive (NaN where the laser misses).
-    fn laser_points(&self) -> PyResult<(Vec<Vec<[f32; 3]>>, Vec<Vec<[f32; 3]>>)> {
+    fn laser_points(&self) -> PyResult<(Grid3, Grid3)> {
         let s = self.get();
         let spots = crate::capture::laser_spots(&s, &crate::capture::scan_points(&s)?, true)?;
         let settings = &s.nlos()?.settings;
@@ -415,6 +416,9 @@ fn load_file(py: Python<'_>, path: PathBuf, params: HashMap<String, String>) -> 
     })?;
     Ok(PyScene::wrap(scene))
 }
+
+/// A 2-D grid of 3-vectors as nested lists.
+type Grid3 = Vec<Vec<[f32; 3]>>;
 
 type Arrays<'py> = (Bound<'py, PyAny>, Bound<'py, PyAny>);
 

@@ -365,14 +365,14 @@ impl Scene {
         let children = root.objects();
         // BSDFs first, so that references resolve whatever the declaration order.
         for (key, v) in &children {
-            if let Value::Object(p) = v {
-                if bsdf::PLUGINS.contains(&p.plugin.as_str()) {
-                    parts.bsdfs.push(Bsdf::from_props(p)?);
-                    parts.scene_bsdfs.insert(
-                        p.id.clone().unwrap_or_else(|| key.clone()),
-                        parts.bsdfs.len() - 1,
-                    );
-                }
+            if let Value::Object(p) = v
+                && bsdf::PLUGINS.contains(&p.plugin.as_str())
+            {
+                parts.bsdfs.push(Bsdf::from_props(p)?);
+                parts.scene_bsdfs.insert(
+                    p.id.clone().unwrap_or_else(|| key.clone()),
+                    parts.bsdfs.len() - 1,
+                );
             }
         }
         for (key, v) in &children {
