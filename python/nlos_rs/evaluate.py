@@ -1,4 +1,7 @@
-"""Reproduce the thesis' evaluation (Tables 5.1-5.3, Figures 5.7-5.12, 5.16-5.17, 5.20-5.21).
+"""Reproduce the thesis' evaluation (Tables 5.1-5.3, Figures 5.7-5.12, 5.16-5.17, 5.20-5.21) of
+I. Tienda Hernando, *Técnicas de muestreo para simulación de transporte de luz sin línea de
+visión* (Sampling techniques for non-line-of-sight light transport simulation), bachelor's thesis
+(Trabajo Fin de Grado), Universidad de Zaragoza, 2023.
 
     python -m nlos_rs.evaluate [--scene z_nlos_1corner] [--spp N] [--gt-spp N] [--out DIR] ...
 

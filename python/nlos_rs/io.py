@@ -3,7 +3,7 @@
 ``write_capture`` writes tal's file format directly with h5py (no tal import): one top-level dataset
 per field, enums as HDF5 enum datasets, ``scene_info`` as YAML text (JSON, which YAML reads).
 ``to_tal`` builds a ``tal.io.NLOSCaptureData`` when tal is installed. Axis conventions
-(shared/reference/tal-capture-format.md): H is ``(T, Sx, Sy)`` — time, then the wall's x index, then
+(tal's ``tal/io/capture_data.py``): H is ``(T, Sx, Sy)`` — time, then the wall's x index, then
 y — or ``(T, Lx, Ly, Sx, Sy)`` for exhaustive captures; grids are ``(X, Y, 3)``; times are metres of
 optical path.
 

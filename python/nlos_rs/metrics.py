@@ -1,4 +1,7 @@
-"""Error metrics of the thesis' evaluation (§5.2).
+"""Error metrics of the thesis' evaluation (§5.2) — the thesis being
+I. Tienda Hernando, *Técnicas de muestreo para simulación de transporte de luz sin línea de
+visión* (Sampling techniques for non-line-of-sight light transport simulation), bachelor's thesis
+(Trabajo Fin de Grado), Universidad de Zaragoza, 2023.
 
 ``mse`` is eq. 5.1, the mean of squared differences over the compared values; ``psnr`` is eq. 5.2,
 20·log10 MAX(I) − 10·log10 MSE, with MAX the maximum of the reference. Both take optional masks:

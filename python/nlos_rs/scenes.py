@@ -162,7 +162,7 @@ T_LASER_TARGET = (0.5, 0.0, 0.0)
 def t_nlos_2corner(secondary: str = "small", width: int = 32, height: int = 32, spp: int = 1024,
                    temporal_bins: int = 800, bin_width_opl: float = 0.01, start_opl: float = 1.0,
                    capture_type: str = "single", thickness: float = 0.02, **integrator) -> dict:
-    """A T letter behind two corners (thesis §5.3.2–5.3.3).
+    """A T letter behind two corners (Tienda Hernando 2023, §5.3.2–5.3.3).
 
     Coordinates (metres, y up): relay wall 2x2 m at z = 0 facing +z; laser and sensor at
     (-0.5, 0, 0.25), the laser aimed at (0.5, 0, 0). A diffuse secondary wall in the plane x = 1.6,

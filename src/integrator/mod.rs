@@ -1,8 +1,8 @@
 //! Integrators: how one path sample of a pixel is traced and what it contributes. Each is a
 //! [`Tracer`]: `transient_nlos_path(_rs)` is [`NlosTracer`] (with Hidden Geometry Rejection
 //! Sampling in [`hgrs`]), `transient_path` is [`PathTracer`]. The render loop
-//! ([`crate::render`]) only sees the trait; a new integrator is a new file here and a line in
-//! [`crate::render::render`].
+//! (`render.rs`) only sees the trait; a new integrator is a new file here and a line in
+//! `render::render`.
 
 pub mod hgrs;
 pub mod nlos;

@@ -1,6 +1,6 @@
 //! Integrator settings: the parameter tables of `transient_nlos_path(_rs)` ([`nlos`]) and
 //! `transient_path` ([`path`]), read from a [`Props`] and validated. Plain data: the tracers in
-//! [`crate::integrator`] read them, the scene stores them.
+//! `integrator/` read them, the scene stores them.
 
 pub mod nlos;
 pub mod path;

@@ -19,7 +19,8 @@ pub enum CaptureType {
     Exhaustive,
 }
 
-/// How `transient_nlos_path_rs` uses its N hidden-geometry draws (thesis §3.1).
+/// How `transient_nlos_path_rs` uses its N hidden-geometry draws (Tienda Hernando 2023, §3.1;
+/// the estimators are in `integrator/hgrs.rs`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum HgrsEstimator {
     /// As the thesis publishes it: redraw until a point is visible (at most N tries) and weight the

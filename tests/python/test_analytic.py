@@ -2,7 +2,7 @@
 
 The three-bounce transient (wall x1 → patch y → laser spot p_L) is
   ∫_patch f1 · cos_y / r1² · f_y · cos_L / r2² · L_spot dA_y,  L_spot = E · π/|p_L − o_L|² · ρ_w/π · cos(p_L → o_L)
-with Lambertian f = ρ/π · cos_out (mitransient-nlos-spec §3.6), binned by its optical path
+with Lambertian f = ρ/π · cos_out (docs/mitransient-model.md §3.6), binned by its optical path
 length r1 + r2 (+ |s − x1| + |p_L − o_L| when account_first_and_last_bounces). Evaluated here with
 an independent NumPy midpoint quadrature.
 """

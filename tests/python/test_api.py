@@ -158,8 +158,8 @@ def test_sensor_flag_is_deprecated_and_ignored_like_mitransient():
 
 
 def test_shutter_time_does_not_leak_into_the_optical_path():
-    """mitransient starts the optical path at shutter_open (seconds added to metres, spec §7
-    item 11); a sensor's shutter has nothing to do with the optical path length."""
+    """mitransient starts the optical path at shutter_open (seconds added to metres, docs/mitransient-model.md
+    §5 item 5); a sensor's shutter has nothing to do with the optical path length."""
     d = small()
     d["relay_wall"]["nlos_sensor"]["shutter_open"] = 0.5
     assert np.array_equal(nlos_rs.render(d, progress=False)[1], nlos_rs.render(small(), progress=False)[1])
@@ -168,7 +168,7 @@ def test_shutter_time_does_not_leak_into_the_optical_path():
 @pytest.mark.parametrize("w", [25, 29, 49, 64])
 def test_scan_points_are_pixel_centres_for_any_grid_width(w):
     """mitransient snaps x/W with float32 floor((x/W)·W) + 0.5, which for W = 25 sends columns
-    5, 10, 15, 20, 23 to the previous pixel's point (spec §7 item 6); these points are also the
+    5, 10, 15, 20, 23 to the previous pixel's point (docs/mitransient-model.md §5 item 4); these points are also the
     confocal laser targets."""
     scene = nlos_rs.load_dict(nlos_rs.scenes.z_nlos_1corner(width=w, height=3, spp=1))
     pts = np.array(scene.scan_points())

@@ -1,4 +1,4 @@
-"""Hidden shapes that occlude each other (mitransient-nlos-spec §7 items 4 and 5).
+"""Hidden shapes that occlude each other (docs/mitransient-model.md §5 items 1 and 2).
 
 A small patch 0.6 m from the wall hides part of a larger one at 1.0 m. Plain BSDF sampling is
 unbiased in both renderers; mitransient's hidden-geometry sampling (HGS) ignores visibility and its

@@ -3,7 +3,7 @@
 Both renderers produce 8 independent replicates (different seeds); quantities (per-pixel totals
 and the pixel-summed time profile in 6-bin groups) are compared with Welch's t at a Šidák-corrected
 level (tests/python/stats.py). Grids are powers of two: mitransient mis-targets some scan points
-of other sizes (spec §7 item 6).
+of other sizes (docs/mitransient-model.md §5 item 4).
 """
 
 import numpy as np
@@ -49,7 +49,7 @@ def test_z_scene_matches_mitransient(peer, capture, size, spp):
 
 @pytest.mark.peer
 def test_exhaustive_steady_is_an_image(peer):
-    """mitransient's exhaustive steady output is mean(transient, axis=-1) (spec §7 item 7); ours is
+    """mitransient's exhaustive steady output is mean(transient, axis=-1) (docs/mitransient-model.md §5 item 3); ours is
     the (H, W, C) image: the laser-averaged time integral of the transient."""
     d = nlos_rs.scenes.z_nlos_1corner(width=4, height=4, spp=256, capture_type="exhaustive")
     steady, transient = nlos_rs.render(d, progress=False)
