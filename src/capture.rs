@@ -68,6 +68,19 @@ impl Capture {
 pub fn scan_points(scene: &Scene) -> Result<Vec<Option<Interaction>>> {
     let film = &scene.meter.film;
     let s = scene.meter.origin;
+    let seen_through = |target: Vec3A| {
+        let d = (target - s).normalize_or_zero();
+        if d == Vec3A::ZERO {
+            None
+        } else {
+            scene.intersect(s, d, f32::INFINITY).map(|h| h.1)
+        }
+    };
+    if scene.meter.confocal_grid.is_some() {
+        // tal's confocal scan: the one pixel looks where the laser is aimed.
+        let target = scene.nlos()?.laser_target;
+        return Ok(vec![seen_through(target)]);
+    }
     let mut points = Vec::with_capacity(film.width * film.height);
     for y in 0..film.height {
         for x in 0..film.width {
@@ -76,12 +89,7 @@ pub fn scan_points(scene: &Scene) -> Result<Vec<Option<Interaction>>> {
                 (y as f32 + 0.5) / film.height as f32,
             );
             let (target, _) = scene.relay_wall_point(uv)?;
-            let d = (target - s).normalize_or_zero();
-            points.push(if d == Vec3A::ZERO {
-                None
-            } else {
-                scene.intersect(s, d, f32::INFINITY).map(|h| h.1)
-            });
+            points.push(seen_through(target));
         }
     }
     if points.iter().all(Option::is_none) {

@@ -30,7 +30,7 @@ impl Projector {
                 p.plugin
             )));
         }
-        let irr = p.colour("irradiance", Colour::Uniform(1.0))?;
+        let irr = p.emission("irradiance", Colour::Uniform(1.0))?;
         let scale = p.float("scale", 1.0)?;
         if !(scale >= 0.0) {
             return Err(NlosError::prop(
@@ -39,10 +39,7 @@ impl Projector {
                 "must be non-negative",
             ));
         }
-        let irradiance = match irr {
-            Colour::Uniform(v) => Colour::Uniform(v * scale),
-            Colour::Rgb(c) => Colour::Rgb(c.map(|v| v * scale)),
-        };
+        let irradiance = irr.scaled(scale);
         let fov = p.float("fov", 30.0)?;
         if !(fov > 0.0 && fov < 180.0) {
             return Err(NlosError::prop(
@@ -136,7 +133,7 @@ pub enum Light {
 impl Light {
     /// Read a `point` light (`position` or `to_world`'s translation, `intensity`).
     pub fn point_from_props(p: &Props) -> Result<Self> {
-        let intensity = p.colour("intensity", Colour::Uniform(1.0))?;
+        let intensity = p.emission("intensity", Colour::Uniform(1.0))?;
         let m = p.matrix("to_world")?;
         let position = if p.has("position") {
             let v = p.vec3("position", [0.0; 3])?;
@@ -153,7 +150,7 @@ impl Light {
 
     /// Read an `area` emitter nested in shape `shape`.
     pub fn area_from_props(p: &Props, shape: usize) -> Result<Self> {
-        let radiance = p.colour("radiance", Colour::Uniform(1.0))?;
+        let radiance = p.emission("radiance", Colour::Uniform(1.0))?;
         p.finish()?;
         Ok(Light::Area { shape, radiance })
     }

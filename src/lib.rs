@@ -35,6 +35,7 @@ pub mod sampling;
 pub mod scene;
 pub mod sensor;
 pub mod settings;
+pub mod spectrum;
 pub mod xml;
 
 #[cfg(feature = "python")]

@@ -5,6 +5,7 @@
 
 use crate::error::{NlosError, Result};
 use crate::math::{Transform, luminance};
+use crate::spectrum;
 use glam::DMat4;
 use std::cell::Cell;
 
@@ -23,6 +24,10 @@ pub enum Value {
     Vec3([f64; 3]),
     /// `rgb` colour.
     Rgb([f64; 3]),
+    /// `spectrum` given as (wavelength nm, value) pairs.
+    Spectrum(Vec<(f64, f64)>),
+    /// `spectrum` given as one value (uniform).
+    UniformSpectrum(f64),
     /// 4×4 matrix (`transform`).
     Matrix(DMat4),
     /// A nested plugin.
@@ -40,6 +45,7 @@ impl Value {
             Value::Str(_) => "string",
             Value::Vec3(_) => "point",
             Value::Rgb(_) => "rgb",
+            Value::Spectrum(_) | Value::UniformSpectrum(_) => "spectrum",
             Value::Matrix(_) => "transform",
             Value::Object(_) => "object",
             Value::Ref(_) => "reference",
@@ -65,6 +71,14 @@ pub enum Colour {
     Uniform(f64),
     /// RGB triple.
     Rgb([f64; 3]),
+    /// A spectrum whose RGB and mono values differ from a plain triple's (a uniform illuminant:
+    /// not grey in RGB, its value in mono).
+    Spectral {
+        /// The RGB value.
+        rgb: [f64; 3],
+        /// The mono value.
+        mono: f64,
+    },
 }
 
 impl Colour {
@@ -72,16 +86,28 @@ impl Colour {
     pub fn spectrum(self, mono: bool) -> crate::math::Spectrum {
         let rgb = match self {
             Colour::Uniform(v) => [v; 3],
-            Colour::Rgb(c) => c,
+            Colour::Rgb(c) | Colour::Spectral { rgb: c, .. } => c,
         };
         if mono {
             let l = match self {
-                Colour::Uniform(v) => v,
+                Colour::Uniform(v) | Colour::Spectral { mono: v, .. } => v,
                 Colour::Rgb(c) => luminance(c),
             };
             glam::Vec3A::splat(l as f32)
         } else {
             glam::Vec3A::new(rgb[0] as f32, rgb[1] as f32, rgb[2] as f32)
+        }
+    }
+
+    /// Scaled by `s` (an emitter's `scale`).
+    pub fn scaled(self, s: f64) -> Self {
+        match self {
+            Colour::Uniform(v) => Colour::Uniform(v * s),
+            Colour::Rgb(c) => Colour::Rgb(c.map(|v| v * s)),
+            Colour::Spectral { rgb, mono } => Colour::Spectral {
+                rgb: rgb.map(|v| v * s),
+                mono: mono * s,
+            },
         }
     }
 }
@@ -184,6 +210,17 @@ impl Props {
         }
     }
 
+    /// A string property that Mitsuba plugins also take as an integer code (e.g. `capture_type`,
+    /// a string or mitransient's `CaptureType` IntEnum): an integer comes back as its decimal text.
+    pub fn string_or_int(&self, key: &str, default: &str) -> Result<String> {
+        match self.take(key) {
+            None => Ok(default.to_string()),
+            Some(Value::Str(v)) => Ok(v.clone()),
+            Some(Value::Int(v)) => Ok(v.to_string()),
+            Some(v) => Err(self.wrong(key, "a string or an integer", v)),
+        }
+    }
+
     /// Point / vector property.
     pub fn vec3(&self, key: &str, default: [f64; 3]) -> Result<[f64; 3]> {
         match self.take(key) {
@@ -213,17 +250,47 @@ impl Props {
         }
     }
 
-    /// Colour property: a number, an `rgb` value, or a `spectrum`/`rgb` object holding one.
+    /// A reflectance-like colour property: a number, an `rgb` value or a `spectrum`
+    /// ([`crate::spectrum`]: weighted by D65 and clamped to [0, 1], as Mitsuba does for BSDFs).
     pub fn colour(&self, key: &str, default: Colour) -> Result<Colour> {
+        self.colour_as(key, default, true)
+    }
+
+    /// An emitted colour (`irradiance`, `radiance`, `intensity`): as [`Props::colour`], but a
+    /// `spectrum` is an illuminant (a uniform one is the equal-energy white of that value).
+    pub fn emission(&self, key: &str, default: Colour) -> Result<Colour> {
+        self.colour_as(key, default, false)
+    }
+
+    fn colour_as(&self, key: &str, default: Colour, reflectance: bool) -> Result<Colour> {
         let c = match self.take(key) {
             None => return Ok(default),
             Some(Value::Float(v)) => Colour::Uniform(*v),
             Some(Value::Int(v)) => Colour::Uniform(*v as f64),
-            Some(Value::Rgb(c)) => Colour::Rgb(*c),
-            Some(v) => return Err(self.wrong(key, "a float or rgb colour", v)),
+            // Three numbers (a list, a Mitsuba colour or point in a dict) are an RGB colour.
+            Some(Value::Rgb(c) | Value::Vec3(c)) => Colour::Rgb(*c),
+            Some(Value::UniformSpectrum(v)) if reflectance => Colour::Uniform(*v),
+            Some(Value::UniformSpectrum(v)) => Colour::Spectral {
+                rgb: spectrum::uniform_illuminant_srgb(*v),
+                mono: *v,
+            },
+            Some(Value::Spectrum(pairs)) => {
+                let ok = pairs.windows(2).all(|w| w[0].0 < w[1].0)
+                    && pairs
+                        .iter()
+                        .all(|(w, v)| w.is_finite() && v.is_finite() && *v >= 0.0);
+                if pairs.len() < 2 || !ok {
+                    return Err(self.err(
+                        key,
+                        "a spectrum needs two or more wavelength:value pairs, wavelengths increasing, values finite and non-negative",
+                    ));
+                }
+                Colour::Rgb(spectrum::to_srgb(pairs, reflectance))
+            }
+            Some(v) => return Err(self.wrong(key, "a float, rgb or spectrum", v)),
         };
         let ok = match c {
-            Colour::Uniform(v) => v.is_finite() && v >= 0.0,
+            Colour::Uniform(v) | Colour::Spectral { mono: v, .. } => v.is_finite() && v >= 0.0,
             Colour::Rgb(c) => c.iter().all(|v| v.is_finite() && *v >= 0.0),
         };
         if !ok {

@@ -10,8 +10,9 @@ use roxmltree::{Document, Node};
 use std::collections::{HashMap, HashSet};
 use std::path::Path;
 
-const OBJECT_TAGS: [&str; 9] = [
+const OBJECT_TAGS: [&str; 10] = [
     "scene",
+    "medium",
     "integrator",
     "shape",
     "bsdf",
@@ -83,6 +84,23 @@ impl Reader<'_> {
             .map(|t| {
                 t.parse::<f64>()
                     .map_err(|_| self.err(node, format!("'{t}' is not a number")))
+            })
+            .collect()
+    }
+
+    /// `"400:0.1, 500:0.5"`: wavelength:value pairs.
+    fn pairs(&self, node: Node, s: &str) -> Result<Vec<(f64, f64)>> {
+        s.split(',')
+            .map(|item| {
+                let (w, v) = item.split_once(':').ok_or_else(|| {
+                    self.err(node, format!("'{}' is not wavelength:value", item.trim()))
+                })?;
+                let num = |t: &str| {
+                    t.trim()
+                        .parse::<f64>()
+                        .map_err(|_| self.err(node, format!("'{}' is not a number", t.trim())))
+                };
+                Ok((num(w)?, num(v)?))
             })
             .collect()
     }
@@ -214,7 +232,8 @@ impl Reader<'_> {
                             .map_err(|_| self.err(child, format!("'{v}' is not a float")))?,
                     )
                 }
-                "boolean" => match self.need(child, "value")?.trim() {
+                // Any case, as Mitsuba reads them ("True", "FALSE", ...).
+                "boolean" => match self.need(child, "value")?.trim().to_lowercase().as_str() {
                     "true" => Value::Bool(true),
                     "false" => Value::Bool(false),
                     v => {
@@ -234,11 +253,17 @@ impl Reader<'_> {
                 }
                 "spectrum" => {
                     let v = self.need(child, "value")?;
-                    match self.numbers(child, &v)?.as_slice() {
-                        [x] => Value::Float(*x),
-                        _ => {
-                            return Err(self
-                                .err(child, "only constant <spectrum value=\"x\"/> is supported"));
+                    if v.contains(':') {
+                        Value::Spectrum(self.pairs(child, &v)?)
+                    } else {
+                        match self.numbers(child, &v)?.as_slice() {
+                            [x] => Value::UniformSpectrum(*x),
+                            _ => {
+                                return Err(self.err(
+                                    child,
+                                    "<spectrum value> is one number or wavelength:value pairs",
+                                ));
+                            }
                         }
                     }
                 }

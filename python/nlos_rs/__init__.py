@@ -21,6 +21,8 @@ from . import _core
 from ._core import Scene, SceneError, __version__
 from . import io, metrics, nlos, scenes, transform
 from .transform import Transform4f
+from .values import normalize
+from .xml import save_xml
 
 __all__ = [
     "Scene",
@@ -33,6 +35,7 @@ __all__ = [
     "metrics",
     "nlos",
     "render",
+    "save_xml",
     "scenes",
     "speed_of_light",
     "transform",
@@ -43,28 +46,6 @@ __all__ = [
 speed_of_light = 299792458.0
 
 
-def _normalize(v: Any) -> Any:
-    """Turn transforms, points and arrays (Mitsuba, NumPy or nlos_rs) into plain nested lists."""
-    if isinstance(v, Mapping):
-        return {k: _normalize(x) for k, x in v.items()}
-    if isinstance(v, (bool, int, float, str)):
-        return v
-    if isinstance(v, np.generic):
-        return v.item()
-    if isinstance(v, Transform4f):
-        return v.matrix.tolist()
-    matrix = getattr(v, "matrix", None)  # mi.ScalarTransform4f / ScalarAffineTransform4f
-    if matrix is not None:
-        v = matrix
-    try:
-        a = np.asarray(v, dtype=float)
-    except (TypeError, ValueError):
-        return v  # the core names the plugin and key in its error
-    if a.shape == (3, 4):  # affine 3x4
-        a = np.vstack([a, [0.0, 0.0, 0.0, 1.0]])
-    return a.tolist() if a.ndim in (1, 2) else v
-
-
 def load_dict(d: Mapping[str, Any]) -> Scene:
     """Load a mitransient-style scene dict (``{'type': 'scene', ...}``).
 
@@ -73,7 +54,7 @@ def load_dict(d: Mapping[str, Any]) -> Scene:
     """
     if not isinstance(d, Mapping):
         raise TypeError(f"load_dict expects a dict, got {type(d).__name__}")
-    return _warn(_core.load_dict(_normalize(d), os.getcwd()))
+    return _warn(_core.load_dict(normalize(d), os.getcwd()))
 
 
 def load_file(path: Union[str, os.PathLike], **params: Any) -> Scene:

@@ -16,17 +16,42 @@ import nlos_rs
 
 BUILTIN = {
     "z_nlos_1corner": nlos_rs.scenes.z_nlos_1corner,
-    "t_nlos_2corner_small": lambda: nlos_rs.scenes.t_nlos_2corner("small"),
-    "t_nlos_2corner_big": lambda: nlos_rs.scenes.t_nlos_2corner("big"),
+    "t_nlos_2corner_small": lambda **kw: nlos_rs.scenes.t_nlos_2corner("small", **kw),
+    "t_nlos_2corner_big": lambda **kw: nlos_rs.scenes.t_nlos_2corner("big", **kw),
 }
 
+#: Film options of the built-in scenes: command-line flag -> keyword of the scene function.
+FILM_OPTIONS = {"width": "width", "height": "height", "bins": "temporal_bins", "bin_width": "bin_width_opl",
+                "start": "start_opl"}
 
-def _load(scene: str) -> "nlos_rs.Scene":
-    if scene in BUILTIN:
-        return nlos_rs.load_dict(BUILTIN[scene]())
-    if Path(scene).suffix.lower() == ".xml":
-        return nlos_rs.load_file(scene)
-    raise ValueError(f"unknown scene {scene!r}: give an XML file or one of {', '.join(BUILTIN)}")
+
+def _load(args: argparse.Namespace) -> "nlos_rs.Scene":
+    film = {kw: getattr(args, flag) for flag, kw in FILM_OPTIONS.items() if getattr(args, flag) is not None}
+    if args.scene in BUILTIN:
+        if args.define:
+            raise ValueError("-D sets $parameters of XML scenes; built-in scenes take --width/--height/--bins/--bin-width/--start")
+        return nlos_rs.load_dict(BUILTIN[args.scene](**film))
+    if Path(args.scene).suffix.lower() == ".xml":
+        if film:
+            raise ValueError("--width/--height/--bins/--bin-width/--start are for built-in scenes; "
+                             "an XML scene takes -D name=value for its $parameters")
+        params = {}
+        for d in args.define:
+            name, eq, value = d.partition("=")
+            if not eq or not name:
+                raise ValueError(f"-D needs name=value, got {d!r}")
+            params[name] = value
+        return nlos_rs.load_file(args.scene, **params)
+    raise ValueError(f"unknown scene {args.scene!r}: give an XML file or one of {', '.join(BUILTIN)}")
+
+
+def _check_outputs(out: Path, figures: "Path | None") -> None:
+    """Before rendering: the output's suffix is known and its folder (and the figures' parent) exist."""
+    if out.suffix.lower() not in (".hdf5", ".h5", ".npz"):
+        raise ValueError(f"--out must end in .hdf5/.h5 (tal capture) or .npz (arrays), got {out}")
+    for what, folder in (("--out", out.parent), ("--figures", figures.parent if figures else None)):
+        if folder is not None and not folder.is_dir():
+            raise ValueError(f"{what}: folder {str(folder)!r} does not exist")
 
 
 def write_figures(out: Path, steady: np.ndarray, transient: np.ndarray, t0: float, dt: float) -> None:
@@ -80,15 +105,12 @@ def cmd_render(args: argparse.Namespace, scene: "nlos_rs.Scene", out: Path, figu
                                        variant=args.variant, kernel_sigma=args.kernel_sigma, kernel_bandwidth=args.kernel_bandwidth)
     seconds = time.perf_counter() - t
     bins, dt, t0 = scene.temporal
-    out.parent.mkdir(parents=True, exist_ok=True)
     if out.suffix.lower() in (".hdf5", ".h5"):
         nlos_rs.io.write_capture(out, scene, transient, scene_info=info)
-    elif out.suffix.lower() == ".npz":
-        np.savez_compressed(out, steady=steady, transient=transient, bin_width_opl=dt, start_opl=t0)
     else:
-        raise ValueError(f"--out must end in .hdf5/.h5 (tal capture) or .npz (arrays), got {out}")
+        np.savez_compressed(out, steady=steady, transient=transient, bin_width_opl=dt, start_opl=t0)
     if figures is not None:
-        figures.mkdir(parents=True, exist_ok=True)
+        figures.mkdir(exist_ok=True)
         write_figures(figures, steady, transient, t0, dt)
     w, h = scene.film_size
     spp = args.spp or scene.spp
@@ -119,19 +141,29 @@ def main(argv=None) -> int:
     rend = sub.add_parser("render", parents=[common], help="render an XML scene or a built-in scene name")
     rend.add_argument("scene", help=f"Mitsuba XML file or one of: {', '.join(BUILTIN)}")
     rend.add_argument("--out", default="capture.hdf5", help="tal capture (.hdf5) or arrays (.npz); default capture.hdf5")
-    rend.add_argument("--figures", metavar="DIR", help="also write PNG figures to DIR")
+    rend.add_argument("--figures", metavar="DIR", help="also write PNG figures to DIR (its parent must exist)")
+    rend.add_argument("-D", dest="define", action="append", default=[], metavar="NAME=VALUE",
+                      help="set an XML scene's $NAME parameter (repeatable)")
+    rend.add_argument("--width", type=int, help="built-in scenes: scan grid width")
+    rend.add_argument("--height", type=int, help="built-in scenes: scan grid height")
+    rend.add_argument("--bins", type=int, help="built-in scenes: number of time bins")
+    rend.add_argument("--bin-width", type=float, help="built-in scenes: bin width (optical path, m)")
+    rend.add_argument("--start", type=float, help="built-in scenes: optical path at the start of bin 0 (m)")
     sub.add_parser("evaluate", help="reproduce the thesis evaluation (see: evaluate --help)")
     args = ap.parse_args(argv)
     try:
         if args.cmd == "demo":
             args.spp = args.spp or 4096
             out = Path(args.out)
+            out.mkdir(exist_ok=True)  # the demo's own folder
             return cmd_render(args, nlos_rs.load_dict(nlos_rs.scenes.z_nlos_1corner(width=64, height=64)), out / "capture.npz", out)
-        return cmd_render(args, _load(args.scene), Path(args.out), Path(args.figures) if args.figures else None)
+        out, figures = Path(args.out), Path(args.figures) if args.figures else None
+        _check_outputs(out, figures)
+        return cmd_render(args, _load(args), out, figures)
     except KeyboardInterrupt:
         print("nlos-rs: interrupted", file=sys.stderr)
         return 130
-    except (ValueError, OSError) as e:
+    except (ValueError, OSError, OverflowError) as e:
         print(f"nlos-rs: error: {e}", file=sys.stderr)
         return 2
 

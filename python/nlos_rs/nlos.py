@@ -10,6 +10,7 @@ from __future__ import annotations
 from typing import Optional, Sequence
 
 from ._core import Scene
+from .values import numbers
 
 
 def _scene(relay_wall: Scene, emitter: Optional[Scene]) -> Scene:
@@ -20,14 +21,15 @@ def _scene(relay_wall: Scene, emitter: Optional[Scene]) -> Scene:
 
 def focus_emitter_at_relay_wall_3dpoint(target: Sequence[float], relay_wall: Scene, emitter: Optional[Scene] = None) -> None:
     """Aim the laser, from its current origin, at a 3D point (up = +y)."""
-    x, y, z = (float(c) for c in target)
+    x, y, z = numbers(target, 3, "target")
     _scene(relay_wall, emitter).focus_laser_at(x, y, z)
 
 
 def focus_emitter_at_relay_wall_uv(uv: Sequence[float], relay_wall: Scene, emitter: Optional[Scene] = None) -> None:
     """Aim the laser at the relay-wall point of ``uv`` in [0, 1]^2."""
     scene = _scene(relay_wall, emitter)
-    p, _ = scene.relay_wall_point(float(uv[0]), float(uv[1]))
+    u, v = numbers(uv, 2, "uv")
+    p, _ = scene.relay_wall_point(u, v)
     scene.focus_laser_at(*p)
 
 
@@ -35,5 +37,6 @@ def focus_emitter_at_relay_wall_pixel(pixel: Sequence[float], relay_wall: Scene,
     """Aim the laser at a scan-grid pixel: uv = pixel / film size (no +0.5, as in mitransient,
     so ``(W/2, H/2)`` is the wall centre and ``(x + 0.5, y + 0.5)`` is pixel (x, y)'s centre)."""
     scene = _scene(relay_wall, emitter)
-    w, h = scene.film_size
-    focus_emitter_at_relay_wall_uv((float(pixel[0]) / w, float(pixel[1]) / h), scene)
+    w, h = scene.scan_grid
+    x, y = numbers(pixel, 2, "pixel")
+    focus_emitter_at_relay_wall_uv((x / w, y / h), scene)

@@ -166,10 +166,10 @@ impl Tracer for PathTracer<'_> {
             let it = self.scene.interaction(ray.o, ray.d, &hit);
             let from = prev.map_or(ray.o, |p| p.0);
             let seg = (it.p - from).length() as f64;
-            opl += if depth == 0 && st.camera_unwarp {
-                0.0
-            } else {
-                seg
+            opl += match depth {
+                0 if st.camera_unwarp => 0.0,
+                0 if st.opl_from_near_clip => seg - ray.tmin as f64,
+                _ => seg,
             };
             let wi = -ray.d;
             // ---- Emission found by the camera ray or by BSDF sampling

@@ -98,16 +98,30 @@ fn value(plugin: &str, key: &str, v: &Bound<'_, PyAny>) -> PyResult<Value> {
                     return Ok(if ty == "rgb" {
                         Value::Rgb([x; 3])
                     } else {
-                        Value::Float(x)
+                        Value::UniformSpectrum(x)
                     });
                 }
-                match (ty.as_str(), numbers(&val).as_deref()) {
-                    ("rgb", Some([r, g, b])) => Ok(Value::Rgb([*r, *g, *b])),
-                    _ => Err(bad(
-                        &ty,
-                        "value",
-                        "must be a number (or, for rgb, three numbers)",
-                    )),
+                if ty == "spectrum" {
+                    // [(wavelength, value), ...]
+                    let pairs: Option<Vec<(f64, f64)>> = val.cast::<PyList>().ok().and_then(|l| {
+                        l.iter()
+                            .map(|p| match numbers(&p).as_deref() {
+                                Some([w, v]) => Some((*w, *v)),
+                                _ => None,
+                            })
+                            .collect()
+                    });
+                    return pairs.map(Value::Spectrum).ok_or_else(|| {
+                        bad(
+                            &ty,
+                            "value",
+                            "must be a number or a list of (wavelength, value) pairs",
+                        )
+                    });
+                }
+                match numbers(&val).as_deref() {
+                    Some([r, g, b]) => Ok(Value::Rgb([*r, *g, *b])),
+                    _ => Err(bad(&ty, "value", "must be a number or three numbers")),
                 }
             }
             "ref" => {
@@ -209,6 +223,14 @@ impl PyScene {
     fn film_size(&self) -> (usize, usize) {
         let f = &self.get().meter.film;
         (f.width, f.height)
+    }
+    /// (width, height) of the scan grid that pixel coordinates refer to: the film's, or in tal's
+    /// confocal scan (a 1x1 film) `original_film_width/height`.
+    #[getter]
+    fn scan_grid(&self) -> (usize, usize) {
+        let s = self.get();
+        let f = &s.meter.film;
+        s.meter.confocal_grid.unwrap_or((f.width, f.height))
     }
     /// Samples per scan point set in the scene's sampler.
     #[getter]

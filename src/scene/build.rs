@@ -19,6 +19,57 @@ use std::path::Path;
 
 const SHAPES: [&str; 6] = ["obj", "ply", "rectangle", "disk", "cube", "sphere"];
 
+/// Mitsuba's BSDF plugins that nlos_rs does not read yet (an error names them as BSDFs).
+const OTHER_BSDFS: [&str; 16] = [
+    "twosided",
+    "conductor",
+    "roughconductor",
+    "dielectric",
+    "thindielectric",
+    "roughdielectric",
+    "plastic",
+    "roughplastic",
+    "blendbsdf",
+    "mask",
+    "bumpmap",
+    "normalmap",
+    "principled",
+    "principledthin",
+    "hair",
+    "measured",
+];
+
+/// Emitter plugins other than the ones read (`projector`, `area`, `point`).
+const OTHER_EMITTERS: [&str; 6] = [
+    "angulararea",
+    "spot",
+    "constant",
+    "envmap",
+    "directional",
+    "directionalarea",
+];
+
+/// Participating media and their integrators.
+const MEDIA: [&str; 6] = [
+    "homogeneous",
+    "heterogeneous",
+    "transient_prbvolpath",
+    "volpath",
+    "volpathmis",
+    "prbvolpath",
+];
+
+/// The error for a medium or a volumetric integrator.
+fn media_error(plugin: &str, key: &str) -> NlosError {
+    NlosError::prop(
+        plugin,
+        key,
+        format!(
+            "participating media are not supported ('{plugin}'): nlos_rs renders surfaces only"
+        ),
+    )
+}
+
 /// What the top level of a scene holds, as it is read.
 #[derive(Default)]
 struct Parts {
@@ -169,10 +220,35 @@ impl Parts {
                 Value::Object(c) if c.plugin == "area" => {
                     self.lights.push(Light::area_from_props(&c, shape_idx)?)
                 }
-                Value::Object(c) => {
-                    // Anything else nested in a shape is its BSDF.
+                Value::Object(c)
+                    if bsdf::PLUGINS.contains(&c.plugin.as_str())
+                        || OTHER_BSDFS.contains(&c.plugin.as_str()) =>
+                {
                     self.bsdfs.push(Bsdf::from_props(&c)?);
                     bsdf = Some(self.bsdfs.len() - 1);
+                }
+                Value::Object(c) if OTHER_EMITTERS.contains(&c.plugin.as_str()) => {
+                    return Err(NlosError::prop(
+                        plugin,
+                        &child_key,
+                        format!(
+                            "emitter '{}' is not supported (an 'area' emitter in a shape, a 'projector' laser or a 'point' light)",
+                            c.plugin
+                        ),
+                    ));
+                }
+                Value::Object(c) if MEDIA.contains(&c.plugin.as_str()) => {
+                    return Err(media_error(&c.plugin, &child_key));
+                }
+                Value::Object(c) => {
+                    return Err(NlosError::prop(
+                        plugin,
+                        &child_key,
+                        format!(
+                            "unexpected nested '{}' (a shape holds a bsdf, an 'area' emitter and, in the relay wall, an nlos_capture_meter)",
+                            c.plugin
+                        ),
+                    ));
                 }
                 other => {
                     return Err(NlosError::prop(
@@ -225,6 +301,10 @@ impl Parts {
         };
         match p.plugin.as_str() {
             s if bsdf::PLUGINS.contains(&s) => {} // read first, see `Scene::from_props`
+            s if OTHER_BSDFS.contains(&s) => {
+                Bsdf::from_props(p)?;
+            }
+            s if MEDIA.contains(&s) => return Err(media_error(s, key)),
             s if SHAPES.contains(&s) => self.add_shape(key, p, base_dir)?,
             "transient_nlos_path" | "transient_nlos_path_rs" => {
                 self.nlos_settings.push(NlosSettings::from_props(p)?)
@@ -240,13 +320,13 @@ impl Parts {
                     "the nlos_capture_meter must be nested inside the relay-wall shape",
                 ));
             }
-            "spot" | "constant" | "envmap" | "directional" | "area" => {
+            s if OTHER_EMITTERS.contains(&s) || s == "area" => {
                 return unsupported(
                     "emitter",
                     "projector for NLOS; area lights nested in shapes and point lights for transient_path",
                 );
             }
-            "path" | "direct" | "volpath" | "prb" | "transient_prbvolpath" => {
+            "path" | "direct" | "prb" | "aov" | "moment" | "ptracer" => {
                 return unsupported(
                     "integrator",
                     "use 'transient_path' or 'transient_nlos_path'",
@@ -299,6 +379,7 @@ impl Parts {
             Setup::Nlos(Nlos {
                 relay_wall,
                 laser,
+                laser_target: Vec3A::ZERO,
                 settings,
             }),
         ))

@@ -52,6 +52,9 @@ pub struct Nlos {
     pub relay_wall: usize,
     /// The laser.
     pub laser: Projector,
+    /// Where the laser was last aimed by [`Scene::focus_laser_at`] (the origin until then, as in
+    /// mitransient): the scan point of tal's confocal scan ([`Meter::confocal_grid`]).
+    pub laser_target: Vec3A,
     /// Integrator settings.
     pub settings: NlosSettings,
 }
@@ -177,6 +180,8 @@ impl Scene {
         })?;
         nlos.laser
             .set_to_world(m)
-            .map_err(|e| NlosError::prop("projector", "to_world", e))
+            .map_err(|e| NlosError::prop("projector", "to_world", e))?;
+        nlos.laser_target = target;
+        Ok(())
     }
 }

@@ -25,6 +25,10 @@ pub struct Meter {
     pub film: Film,
     /// Things accepted but ignored, for the caller to show.
     pub warnings: Vec<String>,
+    /// tal's confocal scan (`original_film_width/height` on an `nlos_capture_meter`): the film is
+    /// 1×1, its one pixel looks at where the laser is aimed, and the scan grid it belongs to
+    /// (for pixel → wall coordinates) is this size.
+    pub confocal_grid: Option<(usize, usize)>,
 }
 
 impl Meter {
@@ -71,6 +75,7 @@ impl Meter {
             seed,
             film,
             warnings: Vec::new(),
+            confocal_grid: None,
         })
     }
 }

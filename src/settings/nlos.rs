@@ -123,7 +123,11 @@ impl NlosSettings {
             (Some(b), None) => Some(b + 1),
             (None, d) => d,
         };
-        let capture_type = match p.string("capture_type", "single")?.to_lowercase().as_str() {
+        let capture_type = match p
+            .string_or_int("capture_type", "single")?
+            .to_lowercase()
+            .as_str()
+        {
             "single" | "1" => CaptureType::Single,
             "confocal" | "2" => CaptureType::Confocal,
             "exhaustive" | "3" => CaptureType::Exhaustive,
@@ -165,8 +169,8 @@ impl NlosSettings {
             capture_type,
             force_equal_illumination_scanning: p.bool("force_equal_illumination_scanning", true)?,
             illumination_scan_fov: p.float("illumination_scan_fov", 20.0)?,
-            laser_sampling: p.bool("nlos_laser_sampling", false)?,
-            hidden_geometry_sampling: p.bool("nlos_hidden_geometry_sampling", false)?,
+            laser_sampling: p.bool("nlos_laser_sampling", hgrs.is_some())?,
+            hidden_geometry_sampling: p.bool("nlos_hidden_geometry_sampling", hgrs.is_some())?,
             hgs_rroulette: p.bool("nlos_hidden_geometry_sampling_do_rroulette", false)?,
             hgs_includes_relay_wall: p
                 .bool("nlos_hidden_geometry_sampling_includes_relay_wall", false)?,

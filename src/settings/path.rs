@@ -14,6 +14,9 @@ pub struct PathSettings {
     pub rr_depth: u32,
     /// Measure time from the first surface the camera sees instead of from the pinhole.
     pub camera_unwarp: bool,
+    /// Start the optical path at the camera's near-clip plane, as mitransient does (Mitsuba moves a
+    /// camera ray's origin there), instead of at the pinhole.
+    pub opl_from_near_clip: bool,
     /// Drop light seen directly by the camera.
     pub discard_direct_light: bool,
     /// `temporal_filter='gaussian'` with `gaussian_stddev` (bins).
@@ -27,6 +30,7 @@ impl PathSettings {
             max_depth: max_depth(p)?,
             rr_depth: rr_depth(p)?,
             camera_unwarp: p.bool("camera_unwarp", false)?,
+            opl_from_near_clip: p.bool("opl_from_near_clip", false)?,
             discard_direct_light: p.bool("discard_direct_light", false)?,
             temporal_kernel: temporal_filter(p, 2.0)?,
         };
