@@ -39,5 +39,16 @@ fn uneven_spectrum_and_uniform_illuminant() {
     let s = [(400.0, 0.2), (500.0, 0.8), (600.0, 0.1), (700.0, 0.5)];
     close(to_srgb(&s, false), [0.0588074, 0.499072, 0.478775]);
     close(to_srgb(&s, true), [0.0, 0.531782, 0.534254]);
-    close(uniform_illuminant_srgb(0.5), [0.602397, 0.474146, 0.454458]);
+    // Our equal-energy white is mi.spectrum_list_to_srgb([360, 830], [v, v]) to 1e-6; an
+    // emitter's uniform <spectrum> in Mitsuba's XML goes another way that differs by < 4e-4.
+    close_to(
+        uniform_illuminant_srgb(0.5),
+        [0.6024413, 0.47411445, 0.45463338],
+        1e-5,
+    );
+    close_to(
+        uniform_illuminant_srgb(0.5),
+        [0.602397, 0.474146, 0.454458],
+        4e-4,
+    );
 }
