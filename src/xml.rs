@@ -10,9 +10,12 @@ use roxmltree::{Document, Node};
 use std::collections::{HashMap, HashSet};
 use std::path::Path;
 
-const OBJECT_TAGS: [&str; 10] = [
+const OBJECT_TAGS: [&str; 13] = [
     "scene",
     "medium",
+    "phase",
+    "texture",
+    "volume",
     "integrator",
     "shape",
     "bsdf",

@@ -1,0 +1,312 @@
+"""Scenes as users of mitransient and tal write them: Mitsuba values in dicts, integer capture
+types, XML booleans in any case, spectra, scenes written by tal's own generator (single, confocal
+as one render per laser point, exhaustive, mono and spectrum lasers), mitransient's example files,
+the near-clip time origin, clear errors for what is not supported, save_xml and the CLI.
+
+Parity tests compare replicate means with Welch's t at a Šidák-corrected level (stats.py)."""
+
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import nlos_rs
+import tal_scenes
+from stats import agreement, rebin
+
+DATA = Path(__file__).parent.parent / "data" / "mitransient"
+REPS = 6
+
+
+def small(**kw):
+    return nlos_rs.scenes.z_nlos_1corner(width=4, height=4, spp=64, **kw)
+
+
+def render(scene, **kw):
+    return nlos_rs.render(scene, progress=False, **kw)
+
+
+# ---- 1. Mitsuba / drjit values inside dicts
+
+
+@pytest.mark.peer
+def test_mitsuba_values_in_dicts_convert_by_value(peer):
+    mi = peer
+    from mitransient.integrators.transientnlospath import CaptureType
+
+    d = small()
+    d["relay_wall"]["nlos_sensor"]["sensor_origin"] = mi.ScalarPoint3f(-0.5, 0.0, 0.25)
+    d["z"]["to_world"] = mi.ScalarTransform4f().translate([0.0, 0.0, 1.0])
+    d["z"]["bsdf"]["reflectance"] = mi.ScalarColor3f(1.0, 1.0, 1.0)
+    d["laser"]["irradiance"] = mi.Float(1.0)
+    d["integrator"]["capture_type"] = CaptureType.Single
+    assert np.array_equal(render(d)[1], render(small())[1])
+    # Aiming with the type mitransient and tal pass.
+    a, b = nlos_rs.load_dict(small()), nlos_rs.load_dict(small())
+    nlos_rs.nlos.focus_emitter_at_relay_wall_pixel(mi.Point2f(1, 3), a)
+    nlos_rs.nlos.focus_emitter_at_relay_wall_pixel((1, 3), b)
+    assert a.laser_to_world == b.laser_to_world
+    nlos_rs.nlos.focus_emitter_at_relay_wall_3dpoint(mi.ScalarPoint3f(0.1, 0.2, 0.0), a)
+    nlos_rs.nlos.focus_emitter_at_relay_wall_3dpoint([0.1, 0.2, 0.0], b)
+    assert a.laser_to_world == b.laser_to_world
+
+
+# ---- 2. capture_type as an integer
+
+
+@pytest.mark.parametrize("code, name", [(1, "single"), (2, "confocal"), (3, "exhaustive")])
+def test_capture_type_as_integer(code, name):
+    d = small(capture_type=name)
+    d["integrator"]["capture_type"] = code
+    assert np.array_equal(render(d)[1], render(small(capture_type=name))[1])
+
+
+def test_capture_type_as_xml_integer(tmp_path):
+    nlos_rs.save_xml(small(capture_type="confocal"), tmp_path / "a.xml")
+    text = (tmp_path / "a.xml").read_text().replace('<string name="capture_type" value="confocal"/>',
+                                                    '<integer name="capture_type" value="2"/>')
+    assert '<integer name="capture_type" value="2"/>' in text
+    (tmp_path / "b.xml").write_text(text)
+    assert np.array_equal(render(str(tmp_path / "b.xml"))[1], render(small(capture_type="confocal"))[1])
+
+
+# ---- 3. XML booleans as Mitsuba reads them
+
+
+def test_xml_booleans_in_any_case(tmp_path):
+    nlos_rs.save_xml(small(), tmp_path / "a.xml")
+    text = (tmp_path / "a.xml").read_text()
+    text = text.replace('value="true"', 'value="True"').replace('value="false"', 'value="FALSE"')
+    assert 'value="True"' in text and 'value="FALSE"' in text
+    (tmp_path / "b.xml").write_text(text)
+    assert np.array_equal(render(str(tmp_path / "b.xml"))[1], render(small())[1])
+
+
+# ---- 4. Spectra
+
+
+SPECTRA = ["400:1, 700:1", "400:0.2, 500:0.8, 600:0.1, 700:0.5", "550:1, 560:1", "0.5"]
+
+
+def _spectrum_scene_xml(path: Path, value: str, where: str) -> Path:
+    """The small Z scene with the laser's irradiance or the Z's reflectance given as a spectrum."""
+    d = small()
+    nlos_rs.save_xml(d, path)
+    text = path.read_text()
+    if where == "irradiance":
+        old = '<rgb name="irradiance" value="1.0, 1.0, 1.0"/>'
+    else:  # the Z's reflectance (the first BSDF written is the Z's)
+        old = '<rgb name="reflectance" value="1.0, 1.0, 1.0"/>'
+    assert old in text
+    path.write_text(text.replace(old, f'<spectrum name="{where}" value="{value}"/>', 1))
+    return path
+
+
+@pytest.mark.peer
+@pytest.mark.parametrize("variant", ["mono", "rgb"])
+@pytest.mark.parametrize("where", ["irradiance", "reflectance"])
+def test_spectra_reduce_as_mitsuba_does(peer, tmp_path, variant, where):
+    """Each spectrum scales the three-bounce signal by the colour Mitsuba gives it (read back from
+    Mitsuba with mi.traverse): the laser's irradiance linearly, the Z's reflectance linearly too
+    (laser + hidden-geometry sampling, one bounce on the Z)."""
+    mi = peer
+    ref = render(small(), variant=variant)[1].sum(axis=(0, 1, 2))
+    try:
+        for value in SPECTRA:
+            path = _spectrum_scene_xml(tmp_path / "s.xml", value, where)
+            ours = render(str(path), variant=variant)[1].sum(axis=(0, 1, 2))
+            mi.set_variant(f"llvm_ad_{variant}")
+            params = mi.traverse(mi.load_string(
+                f'<scene version="3.0.0"><emitter type="projector"><spectrum name="irradiance" value="{value}"/></emitter>'
+                f'<shape type="rectangle"><bsdf type="diffuse"><spectrum name="reflectance" value="{value}"/></bsdf></shape></scene>'))
+            key = next(k for k in params.keys() if k.endswith(f"{where}.value"))
+            theirs = np.broadcast_to(np.array(params[key], dtype=float).ravel(), ours.shape)
+            # Mitsuba's uniform illuminant differs from the equal-energy white by < 4e-4 (tests/spectrum.rs).
+            np.testing.assert_allclose(ours / ref, theirs, rtol=5e-4, atol=1e-6, err_msg=f"{where} = {value!r}")
+    finally:
+        mi.set_variant("llvm_ad_mono")
+
+
+def test_bad_spectra_name_the_key(tmp_path):
+    for value in ["700:1, 400:1", "400:1", "400:-1, 700:1", "400:x, 700:1"]:
+        path = _spectrum_scene_xml(tmp_path / "s.xml", value, "irradiance")
+        with pytest.raises(nlos_rs.SceneError, match="irradiance|number"):
+            nlos_rs.load_file(path)
+
+
+# ---- Scenes written by tal's generator, against mitransient
+
+
+def _features(t):
+    t = np.asarray(t)[..., 0]
+    totals = t.sum(-1).reshape(len(t), -1)
+    profile = rebin(t.reshape(len(t), -1, t.shape[-1]).sum(1), 10, -1)
+    return np.concatenate([totals, profile], axis=1)
+
+
+def _tal_render_nlos_rs(path, c, spp, seed):
+    """One capture as tal runs it, with nlos_rs: per laser point, load, aim, render."""
+    out = []
+    for x, y in tal_scenes.laser_lookats(c):
+        scene = nlos_rs.load_file(path)
+        nlos_rs.nlos.focus_emitter_at_relay_wall_pixel((x, y), scene)
+        out.append(render(scene, spp=spp, seed=seed)[1])
+    return np.concatenate(out, axis=1)
+
+
+def _tal_render_mitransient(mi, path, c, spp, seed):
+    """The same with mitransient, as tal's run_mitsuba does it."""
+    import mitransient as mitr
+
+    out = []
+    for x, y in tal_scenes.laser_lookats(c):
+        scene = mi.load_file(str(path))
+        wall = next(s for s in scene.shapes() if s.id() == "relay_wall")
+        laser = next(e for e in scene.emitters() if e.id() == "laser")
+        mitr.nlos.focus_emitter_at_relay_wall_pixel(mi.Point2f(x, y), wall, laser)
+        out.append(np.array(mi.render(scene, spp=spp, seed=seed)[1]))
+    return np.concatenate(out, axis=1)
+
+
+TAL_CASES = {
+    # name: (overrides, spp)
+    "single_bsdf": (dict(scan_type="single", integrator_max_depth=4), 4096),
+    "single_hgs_mono_laser": (dict(scan_type="single", integrator_nlos_hidden_geometry_sampling=True,
+                                   integrator_nlos_hidden_geometry_sampling_includes_relay_wall=False,
+                                   laser_emission_mode="mono", laser_emission="2.5"), 1024),
+    "single_spectrum_laser": (dict(scan_type="single", integrator_nlos_hidden_geometry_sampling=True,
+                                   integrator_nlos_hidden_geometry_sampling_includes_relay_wall=False,
+                                   laser_emission_mode="spectrum", laser_emission="400:1, 550:2, 700:1"), 1024),
+    "confocal_1x1_per_point": (dict(scan_type="confocal", laser_width=2, laser_height=2,
+                                    integrator_nlos_hidden_geometry_sampling=True,
+                                    integrator_nlos_hidden_geometry_sampling_includes_relay_wall=False), 4096),
+    "exhaustive_per_point": (dict(scan_type="exhaustive", laser_width=2, laser_height=1,
+                                  integrator_nlos_hidden_geometry_sampling=True,
+                                  integrator_nlos_hidden_geometry_sampling_includes_relay_wall=False,
+                                  account_first_and_last_bounces=True), 1024),
+}
+
+
+@pytest.mark.peer
+@pytest.mark.parametrize("name", sorted(TAL_CASES))
+def test_tal_generated_scene_matches_mitransient(peer, tmp_path, name):
+    from nlos_rs.mitsuba_compat import import_mitransient
+
+    overrides, spp = TAL_CASES[name]
+    size = 2 if overrides["scan_type"] == "confocal" else 4
+    overrides = dict(sensor_width=size, sensor_height=size, num_bins=200, bin_width_opl=0.01, start_opl=1.8,
+                     sample_count=spp, **overrides)
+    path = tal_scenes.nlos_xml(tmp_path, **overrides)
+    import_mitransient("llvm_ad_mono")  # tal's generator switched Mitsuba to scalar_rgb
+    c = tal_scenes.config(**overrides)
+    ours = np.array([_tal_render_nlos_rs(path, c, spp, k) for k in range(REPS)])
+    theirs = np.array([_tal_render_mitransient(peer, path, c, spp, k) for k in range(REPS)])
+    assert ours.shape == theirs.shape, (ours.shape, theirs.shape)
+    res = agreement(_features(ours), _features(theirs))
+    ratio = ours.sum() / theirs.sum()
+    print(f"\n{name}: {res}, total ratio {ratio:.4f}")
+    assert theirs.sum() > 0 and res["agree"], res
+    assert abs(ratio - 1) < 0.05
+
+
+# ---- 10. near_clip: where a camera's optical path starts
+
+
+@pytest.mark.peer
+def test_near_clip_time_origin(peer):
+    """mitransient's cbox_diffuse.xml (near_clip = 10): mitransient measures the optical path from
+    the near-clip plane (Mitsuba starts camera rays there); nlos_rs from the pinhole, unless
+    opl_from_near_clip=true. With it the two agree; without it nlos_rs's profile is later by
+    near_clip / bin_width_opl bins (10 / 6.5) along the optical axis."""
+    from nlos_rs.mitsuba_compat import import_mitransient
+
+    mi, _ = import_mitransient("llvm_ad_mono")
+    path = DATA / "cornell-box" / "cbox_diffuse.xml"
+    text = path.read_text()
+    flagged = path.with_name("cbox_diffuse_nearclip.xml")
+    flagged.write_text(text.replace('<boolean name="camera_unwarp" value="false"/>',
+                                    '<boolean name="camera_unwarp" value="false"/>\n      <boolean name="opl_from_near_clip" value="true"/>'))
+    try:
+        params = dict(res="8", spp="256")
+        ours = np.array([render(nlos_rs.load_file(flagged, **params), seed=k)[1] for k in range(REPS)])
+        plain = np.array([render(nlos_rs.load_file(path, **params), seed=k)[1] for k in range(REPS)])
+    finally:
+        flagged.unlink()
+    theirs = np.array([np.array(mi.render(mi.load_file(str(path), **params), seed=k)[1]) for k in range(REPS)])
+    res = agreement(_features(ours), _features(theirs))
+    print(f"\nnear clip: {res}, ratio {ours.sum() / theirs.sum():.4f}")
+    assert res["agree"], res
+    # Without the flag the energy is the same but arrives later: by near_clip along the optical
+    # axis, near_clip / cos θ along a ray at θ from it (at most 0.893 at this film's corners).
+    t = np.arange(ours.shape[-2])
+    mean_bin = lambda a: (a[..., 0].sum((0, 1, 2)) * t).sum() / a[..., 0].sum()  # noqa: E731
+    shift = mean_bin(plain) - mean_bin(ours)
+    assert 10 / 6.5 - 0.02 < shift < 10 / 6.5 / 0.893 + 0.02, shift
+    assert abs(plain.sum() / ours.sum() - 1) < 0.02
+
+
+# ---- 8, 11. What is not supported says what it is
+
+
+def test_media_are_rejected_clearly():
+    with pytest.raises(nlos_rs.SceneError, match="participating media"):
+        nlos_rs.load_file(DATA / "cornell-box" / "cbox_volumetric.xml")
+    d = small()
+    d["integrator"] = {"type": "transient_prbvolpath"}
+    with pytest.raises(nlos_rs.SceneError, match="participating media"):
+        nlos_rs.load_dict(d)
+
+
+def test_unsupported_emitter_is_called_an_emitter():
+    with pytest.raises(nlos_rs.SceneError, match="emitter 'angulararea'") as e:
+        nlos_rs.load_file(DATA / "angulararea-emitter" / "angular_1light.xml")
+    assert "bsdf" not in str(e.value)
+
+
+# ---- The first hour
+
+
+def test_readme_hgrs_example_works_as_written():
+    d = small()
+    d["integrator"] = {"type": "transient_nlos_path_rs", "hgrs_max_iterations": 10, "hgrs_estimator": "resampled"}
+    assert render(d)[1].sum() > 0
+
+
+def test_save_xml_round_trip_and_example_scene(tmp_path):
+    for d in (small(capture_type="exhaustive"), nlos_rs.scenes.cornell_box(width=4, height=4, spp=16)):
+        nlos_rs.save_xml(d, tmp_path / "s.xml")
+        assert np.array_equal(render(str(tmp_path / "s.xml"))[1], render(d)[1])
+    example = Path(__file__).parent.parent.parent / "examples" / "z_nlos_1corner.xml"
+    scene = nlos_rs.load_file(example, spp=16)
+    assert scene.spp == 16 and render(scene)[1].sum() > 0
+
+
+@pytest.mark.peer
+def test_example_scene_loads_in_mitransient(peer):
+    example = Path(__file__).parent.parent.parent / "examples" / "z_nlos_1corner.xml"
+    scene = peer.load_file(str(example), spp="16")
+    assert np.array(peer.render(scene)[1]).sum() > 0
+
+
+def _cli(*args, cwd):
+    return subprocess.run([sys.executable, "-m", "nlos_rs", *args], capture_output=True, text=True, cwd=cwd)
+
+
+def test_cli_film_options_defines_and_output_checks(tmp_path):
+    r = _cli("render", "z_nlos_1corner", "--width", "4", "--height", "2", "--bins", "50", "--bin-width", "0.05",
+             "--start", "1.5", "--spp", "16", "--quiet", "--out", "a.npz", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    a = np.load(tmp_path / "a.npz")
+    assert a["transient"].shape == (2, 4, 50, 1) and float(a["bin_width_opl"]) == 0.05 and float(a["start_opl"]) == 1.5
+    example = Path(__file__).parent.parent.parent / "examples" / "z_nlos_1corner.xml"
+    r = _cli("render", str(example), "-D", "spp=8", "--quiet", "--out", "b.npz", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    # Missing output folder, unknown suffix, film options on XML, -D on built-ins: one line, exit 2, nothing rendered.
+    for args in (["z_nlos_1corner", "--out", "missing/c.npz"], ["z_nlos_1corner", "--out", "c.txt"],
+                 [str(example), "--width", "4"], ["z_nlos_1corner", "-D", "spp=4"],
+                 ["z_nlos_1corner", "--spp", str(2**64)], ["z_nlos_1corner", "--figures", "no/such/dir"]):
+        r = _cli("render", *args, "--quiet", cwd=tmp_path)
+        assert r.returncode == 2 and r.stderr.count("\n") == 1 and "Traceback" not in r.stderr, (args, r.stderr)
+    assert not (tmp_path / "missing").exists()
