@@ -11,6 +11,7 @@ def run(*args, cwd):
 
 
 def test_render_builtin_scene(tmp_path):
+    (tmp_path / "o").mkdir()  # --out into a missing folder is an error (test_dropin.py)
     r = run("render", "z_nlos_1corner", "--spp", "8", "--quiet", "--figures", "figs", "--out", "o/a.npz", cwd=tmp_path)
     assert r.returncode == 0, r.stderr
     assert "rendered 32x32 x 300 bins, 8 spp" in r.stdout
