@@ -76,10 +76,24 @@ pub fn scan_points(scene: &Scene) -> Result<Vec<Option<Interaction>>> {
             scene.intersect(s, d, f32::INFINITY).map(|h| h.1)
         }
     };
+    let nlos = scene.nlos()?;
     if scene.meter.confocal_grid.is_some() {
         // tal's confocal scan: the one pixel looks where the laser is aimed.
-        let target = scene.nlos()?.laser_target;
-        return Ok(vec![seen_through(target)]);
+        return Ok(vec![seen_through(nlos.laser_target)]);
+    }
+    if let Some(camera) = &nlos.camera {
+        // A camera: the surface its pixel-centre ray sees (each sample jitters within the pixel).
+        let (w, h) = (film.width, film.height);
+        let points: Vec<_> = (0..w * h)
+            .map(|i| {
+                let r = camera.pixel_ray(i, w, h, Vec2::splat(0.5));
+                scene
+                    .accel
+                    .intersect(r.o, r.d, r.tmin, r.tmax)
+                    .map(|hit| scene.interaction(r.o, r.d, &hit))
+            })
+            .collect();
+        return check_visible(points);
     }
     let mut points = Vec::with_capacity(film.width * film.height);
     for y in 0..film.height {
@@ -92,11 +106,15 @@ pub fn scan_points(scene: &Scene) -> Result<Vec<Option<Interaction>>> {
             points.push(seen_through(target));
         }
     }
+    check_visible(points)
+}
+
+fn check_visible(points: Vec<Option<Interaction>>) -> Result<Vec<Option<Interaction>>> {
     if points.iter().all(Option::is_none) {
         return Err(NlosError::prop(
             "nlos_capture_meter",
             "sensor_origin",
-            "no scan point is visible from the sensor origin",
+            "no scan point is visible from the sensor",
         ));
     }
     Ok(points)

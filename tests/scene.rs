@@ -82,7 +82,7 @@ fn load(p: &Props) -> Scene {
 fn hidden_geometry_sampling_is_uniform_by_area() {
     let scene = load(&scene_props(vec![], vec![]));
     let wall = scene.nlos().expect("an NLOS scene").relay_wall;
-    let hg = AreaSampler::new(&scene, |s| s != wall).expect("hidden geometry");
+    let hg = AreaSampler::new(&scene, |s| Some(s) != wall).expect("hidden geometry");
     assert!(
         (hg.total_area() - 0.8).abs() < 1e-5,
         "area {}",

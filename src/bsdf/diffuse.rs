@@ -53,7 +53,7 @@ impl Diffuse<Spectrum> {
         })
     }
 
-    /// cos θ_o / π above the surface, else 0.
+    /// cos θ_o / π above the surface, else 0 (whatever `wi`).
     #[inline]
     pub fn pdf(&self, ns: Vec3A, wo: Vec3A) -> f32 {
         ns.dot(wo).max(0.0) * FRAC_1_PI

@@ -7,8 +7,10 @@
 //! are in world space.
 
 pub mod diffuse;
+pub mod twosided;
 
 pub use diffuse::Diffuse;
+pub use twosided::TwoSided;
 
 use crate::error::{NlosError, Result};
 use crate::math::Spectrum;
@@ -21,10 +23,12 @@ use glam::Vec3A;
 pub enum Bsdf<S> {
     /// `diffuse`: Lambertian.
     Diffuse(Diffuse<S>),
+    /// `twosided`: a BSDF on both sides of the surface.
+    TwoSided(TwoSided<S>),
 }
 
 /// The plugin names [`Bsdf::from_props`] reads.
-pub const PLUGINS: [&str; 1] = ["diffuse"];
+pub const PLUGINS: [&str; 2] = ["diffuse", "twosided"];
 
 /// A sampled direction and its weight.
 #[derive(Clone, Copy, Debug)]
@@ -47,6 +51,7 @@ impl Bsdf<Colour> {
     pub fn from_props(p: &Props) -> Result<Self> {
         match p.plugin.as_str() {
             "diffuse" => Ok(Bsdf::Diffuse(Diffuse::from_props(p)?)),
+            "twosided" => Ok(Bsdf::TwoSided(TwoSided::from_props(p)?)),
             other => Err(NlosError::prop(
                 other,
                 "type",
@@ -61,6 +66,10 @@ impl Bsdf<Colour> {
             Bsdf::Diffuse(d) => Bsdf::Diffuse(Diffuse {
                 reflectance: d.reflectance.spectrum(mono),
             }),
+            Bsdf::TwoSided(t) => Bsdf::TwoSided(TwoSided {
+                front: Box::new(t.front.resolve(mono)),
+                back: Box::new(t.back.resolve(mono)),
+            }),
         }
     }
 }
@@ -71,6 +80,7 @@ impl Bsdf<Spectrum> {
     pub fn eval(&self, ns: Vec3A, wi: Vec3A, wo: Vec3A) -> Option<Spectrum> {
         match self {
             Bsdf::Diffuse(d) => d.eval(ns, wi, wo),
+            Bsdf::TwoSided(t) => t.eval(ns, wi, wo),
         }
     }
 
@@ -79,23 +89,26 @@ impl Bsdf<Spectrum> {
     pub fn sample(&self, ns: Vec3A, wi: Vec3A, rng: &mut Sampler) -> Option<BsdfSample> {
         match self {
             Bsdf::Diffuse(d) => d.sample(ns, wi, rng),
+            Bsdf::TwoSided(t) => t.sample(ns, wi, rng),
         }
     }
 
-    /// Solid-angle density with which [`Bsdf::sample`] picks `wo`.
+    /// Solid-angle density with which [`Bsdf::sample`] picks `wo` given `wi`.
     #[inline]
-    pub fn pdf(&self, ns: Vec3A, wo: Vec3A) -> f32 {
+    pub fn pdf(&self, ns: Vec3A, wi: Vec3A, wo: Vec3A) -> f32 {
         match self {
             Bsdf::Diffuse(d) => d.pdf(ns, wo),
+            Bsdf::TwoSided(t) => t.pdf(ns, wi, wo),
         }
     }
 
-    /// The radiance a view-independent BSDF reflects per unit incident irradiance·π (its albedo ρ),
-    /// for caching a laser spot's next-event estimate once for every path that reaches it.
+    /// The albedo ρ of a view-independent (Lambertian) BSDF on the side the shading normal points
+    /// to, for caching a laser spot's next-event estimate once for every path that reaches it.
     #[inline]
     pub fn albedo(&self) -> Spectrum {
         match self {
             Bsdf::Diffuse(d) => d.reflectance,
+            Bsdf::TwoSided(t) => t.front.albedo(),
         }
     }
 }

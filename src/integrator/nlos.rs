@@ -17,6 +17,7 @@ use crate::geometry::Interaction;
 use crate::math::{COS_EPS, Spectrum};
 use crate::sampling::Sampler;
 use crate::scene::{AreaSampler, Scene};
+use crate::sensor::Camera;
 use crate::settings::{CaptureType, NlosSettings};
 use glam::Vec3A;
 
@@ -31,6 +32,8 @@ pub struct NlosTracer<'a> {
     irradiance: Spectrum,
     /// Scan points and laser spots.
     capture: Capture,
+    /// A perspective camera as the sensor, instead of the scan points.
+    camera: Option<&'a Camera>,
     /// Hidden-geometry distribution, if that sampling is on.
     hidden: Option<AreaSampler>,
 }
@@ -42,16 +45,19 @@ impl<'a> NlosTracer<'a> {
         let settings = &nlos.settings;
         let hidden = if settings.hidden_geometry_sampling {
             // Every shape but the relay wall (unless included) is hidden geometry (mitransient-model §3.1).
+            // With a camera there is no relay-wall shape: every shape is hidden geometry.
             let wall = nlos.relay_wall;
             Some(
-                AreaSampler::new(scene, |s| settings.hgs_includes_relay_wall || s != wall)
-                    .ok_or_else(|| {
-                        NlosError::prop(
-                            "transient_nlos_path",
-                            "nlos_hidden_geometry_sampling",
-                            "the scene has no hidden geometry to sample (zero total area)",
-                        )
-                    })?,
+                AreaSampler::new(scene, |s| {
+                    settings.hgs_includes_relay_wall || Some(s) != wall
+                })
+                .ok_or_else(|| {
+                    NlosError::prop(
+                        "transient_nlos_path",
+                        "nlos_hidden_geometry_sampling",
+                        "the scene has no hidden geometry to sample (zero total area)",
+                    )
+                })?,
             )
         } else {
             None
@@ -63,6 +69,7 @@ impl<'a> NlosTracer<'a> {
             bsdfs: scene.shape_bsdfs(mono),
             irradiance: nlos.laser.irradiance.spectrum(mono),
             capture: Capture::new(scene, mono)?,
+            camera: nlos.camera.as_ref(),
             hidden,
         })
     }
@@ -175,6 +182,33 @@ impl<'a> NlosTracer<'a> {
         })
     }
 
+    /// The path's first vertex x₁ for pixel `pixel`, the direction back to the sensor and the
+    /// optical path so far: the scan point seen from the sensor origin, or with a camera the
+    /// surface its jittered ray hits (the first leg measured from the pinhole).
+    #[inline]
+    fn first_vertex(&self, pixel: usize, rng: &mut Sampler) -> Option<Vertex> {
+        let account = self.settings.account_first_and_last_bounces;
+        let (it, sensor) = match self.camera {
+            None => (self.capture.scan_points[pixel]?, self.scene.meter.origin),
+            Some(camera) => {
+                let film = &self.scene.meter.film;
+                let r = camera.pixel_ray(pixel, film.width, film.height, rng.next_2d());
+                let hit = self.scene.accel.intersect(r.o, r.d, r.tmin, r.tmax)?;
+                (self.scene.interaction(r.o, r.d, &hit), r.o)
+            }
+        };
+        Some(Vertex {
+            it,
+            wi: (sensor - it.p).normalize(),
+            beta: Spectrum::ONE,
+            opl: if account {
+                (sensor - it.p).length() as f64
+            } else {
+                0.0
+            },
+        })
+    }
+
     /// Emitter sampling at a vertex: laser sampling to the capture's spot(s), or NEE to the laser.
     #[inline]
     fn emitter_sampling(&self, pixel: usize, v: &Vertex, out: &mut impl FnMut(Splat)) {
@@ -198,18 +232,15 @@ impl Tracer for NlosTracer<'_> {
     /// Trace one path from the scan point of `pixel` (mitransient-model §3.2–3.3).
     fn trace(&self, pixel: usize, rng: &mut Sampler, out: &mut impl FnMut(Splat)) {
         let st = self.settings;
-        let Some(x1) = self.capture.scan_points[pixel] else {
+        let Some(Vertex {
+            mut it,
+            mut wi,
+            mut beta,
+            mut opl,
+        }) = self.first_vertex(pixel, rng)
+        else {
             return;
         };
-        let s = self.scene.meter.origin;
-        let mut it = x1;
-        let mut wi = (s - x1.p).normalize();
-        let mut opl = if st.account_first_and_last_bounces {
-            (s - x1.p).length() as f64
-        } else {
-            0.0
-        };
-        let mut beta = Spectrum::ONE;
         let mut depth: u32 = 0;
         // Contribution depth of a vertex at loop depth d: d + 2 with laser sampling (the spot is
         // an extra vertex), d with NEE (mitransient-model §2, filter_bounces).

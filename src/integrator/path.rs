@@ -14,7 +14,7 @@ use crate::sampling::Sampler;
 use crate::scene::{AreaSampler, Los, Scene};
 use crate::sensor::Camera;
 use crate::settings::PathSettings;
-use glam::{Vec2, Vec3A};
+use glam::Vec3A;
 
 /// Power heuristic with exponent 2 (Mitsuba's `mis_weight`).
 #[inline]
@@ -127,7 +127,7 @@ impl<'a> PathTracer<'a> {
                     return; // the back of a one-sided area light
                 }
                 let pdf = self.light_pdf(sampler, x.p, y.p, y.ng);
-                (y.p, *radiance / pdf, mis(pdf, bsdf.pdf(x.ns, -w)))
+                (y.p, *radiance / pdf, mis(pdf, bsdf.pdf(x.ns, wi, -w)))
             }
         };
         let v = target - x.p;
@@ -151,12 +151,7 @@ impl Tracer for PathTracer<'_> {
     fn trace(&self, pixel: usize, rng: &mut Sampler, out: &mut impl FnMut(Splat)) {
         let st = self.settings;
         let (width, height) = (self.width, self.height);
-        let j = rng.next_2d();
-        let uv = Vec2::new(
-            ((pixel % width) as f32 + j.x) / width as f32,
-            ((pixel / width) as f32 + j.y) / height as f32,
-        );
-        let mut ray = self.camera.ray(uv);
+        let mut ray = self.camera.pixel_ray(pixel, width, height, rng.next_2d());
         let mut beta = Spectrum::ONE;
         let mut opl = 0.0f64;
         // The previous vertex and its BSDF sampling density, for MIS on emission hits.

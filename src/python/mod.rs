@@ -287,7 +287,7 @@ impl PyScene {
         self.get().shapes.iter().map(|s| s.id.clone()).collect()
     }
     #[getter]
-    fn relay_wall_index(&self) -> PyResult<usize> {
+    fn relay_wall_index(&self) -> PyResult<Option<usize>> {
         Ok(self.get().nlos()?.relay_wall)
     }
     /// The integrator's name.

@@ -12,7 +12,7 @@ use crate::geometry::{Prim, bvh::Accel, mesh::Mesh};
 use crate::math::Transform;
 use crate::props::{Colour, Props, Value};
 use crate::sensor::{Camera, Meter};
-use crate::settings::{NlosSettings, PathSettings};
+use crate::settings::{CaptureType, NlosSettings, PathSettings};
 use glam::Vec3A;
 use std::collections::HashMap;
 use std::path::Path;
@@ -20,8 +20,7 @@ use std::path::Path;
 const SHAPES: [&str; 6] = ["obj", "ply", "rectangle", "disk", "cube", "sphere"];
 
 /// Mitsuba's BSDF plugins that nlos_rs does not read yet (an error names them as BSDFs).
-const OTHER_BSDFS: [&str; 16] = [
-    "twosided",
+const OTHER_BSDFS: [&str; 15] = [
     "conductor",
     "roughconductor",
     "dielectric",
@@ -360,28 +359,53 @@ impl Parts {
                 )));
             }
         };
-        if !self.cameras.is_empty() {
-            return Err(NlosError::Scene("an NLOS scene measures with the relay wall's nlos_capture_meter, not a perspective camera".into()));
-        }
-        let (relay_wall, meter) = self.meter.take().ok_or_else(|| {
-            NlosError::Scene("no shape owns an nlos_capture_meter (the relay wall)".into())
-        })?;
-        if self.shapes[relay_wall].rectangle.is_none() {
+        let (relay_wall, camera, meter) = match (
+            self.meter.take(),
+            self.cameras.pop(),
+            self.cameras.len(),
+        ) {
+            (Some((wall, meter)), None, _) => (Some(wall), None, meter),
+            (None, Some((camera, meter)), 0) => {
+                // A camera sees the relay surface; it scans no laser grid of its own.
+                if settings.capture_type != CaptureType::Single {
+                    return Err(NlosError::prop(
+                        "transient_nlos_path",
+                        "capture_type",
+                        "a perspective camera as the NLOS sensor supports capture_type='single' only; use an nlos_capture_meter for confocal and exhaustive scans",
+                    ));
+                }
+                (None, Some(camera), meter)
+            }
+            (None, None, _) => {
+                return Err(NlosError::Scene(
+                        "no shape owns an nlos_capture_meter (the relay wall), and there is no perspective sensor".into(),
+                    ));
+            }
+            _ => {
+                return Err(NlosError::Scene(
+                        "an NLOS scene has one sensor: an nlos_capture_meter in the relay wall or one perspective camera".into(),
+                    ));
+            }
+        };
+        if let Some(wall) = relay_wall
+            && self.shapes[wall].rectangle.is_none()
+        {
             return Err(NlosError::Scene(format!(
                 "the relay wall must be a 'rectangle' (got '{}'): the scan grid is defined on its parametrisation",
-                self.shapes[relay_wall].plugin
+                self.shapes[wall].plugin
             )));
         }
         settings.check(&meter.film)?;
         let meter = apply_kernel(meter, settings.temporal_kernel)?;
         Ok((
             meter,
-            Setup::Nlos(Nlos {
+            Setup::Nlos(Box::new(Nlos {
                 relay_wall,
+                camera,
                 laser,
                 laser_target: Vec3A::ZERO,
                 settings,
-            }),
+            })),
         ))
     }
 

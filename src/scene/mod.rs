@@ -40,7 +40,7 @@ pub struct Shape {
 pub enum Setup {
     /// An NLOS capture: relay wall with an `nlos_capture_meter`, a `projector` laser,
     /// `transient_nlos_path(_rs)`.
-    Nlos(Nlos),
+    Nlos(Box<Nlos>),
     /// A line-of-sight render: `perspective` camera, `area`/`point` lights, `transient_path`.
     Los(Los),
 }
@@ -48,8 +48,12 @@ pub enum Setup {
 /// The NLOS part of a scene.
 #[derive(Clone)]
 pub struct Nlos {
-    /// Index of the relay wall (the shape owning the capture meter).
-    pub relay_wall: usize,
+    /// Index of the relay wall (the shape owning the capture meter); `None` when a perspective
+    /// camera measures the capture.
+    pub relay_wall: Option<usize>,
+    /// A perspective camera as the NLOS sensor (mitransient accepts any sensor; its example
+    /// `nlos-z-simple.xml` uses one): each sample's camera ray finds the path's first vertex.
+    pub camera: Option<Camera>,
     /// The laser.
     pub laser: Projector,
     /// Where the laser was last aimed by [`Scene::focus_laser_at`] (the origin until then, as in
@@ -156,7 +160,12 @@ impl Scene {
 
     /// The relay-wall point of a uv in [0, 1]² (`rectangle.sample_position`: to_world·(2u−1, 2v−1, 0)).
     pub fn relay_wall_point(&self, uv: Vec2) -> Result<(Vec3A, Vec3A)> {
-        let wall = self.nlos()?.relay_wall;
+        let wall = self.nlos()?.relay_wall.ok_or_else(|| {
+            NlosError::Scene(
+                "this capture is measured by a perspective camera: it has no relay-wall scan grid"
+                    .into(),
+            )
+        })?;
         let t = self.shapes[wall].rectangle.unwrap_or(Transform::IDENTITY);
         let p = t.point(Vec3A::new(2.0 * uv.x - 1.0, 2.0 * uv.y - 1.0, 0.0));
         let s = if self.shape_flip[wall] { -1.0 } else { 1.0 };

@@ -107,6 +107,16 @@ impl Camera {
         Ok((cam, meter))
     }
 
+    /// The ray through pixel `pixel` (row-major on a `width`×`height` film) at the offset
+    /// `jitter` ∈ [0, 1)² within the pixel.
+    #[inline]
+    pub fn pixel_ray(&self, pixel: usize, width: usize, height: usize, jitter: Vec2) -> Ray {
+        self.ray(Vec2::new(
+            ((pixel % width) as f32 + jitter.x) / width as f32,
+            ((pixel / width) as f32 + jitter.y) / height as f32,
+        ))
+    }
+
     /// The ray through film position uv, clipped to (near, far).
     #[inline]
     pub fn ray(&self, uv: Vec2) -> Ray {
