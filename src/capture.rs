@@ -11,14 +11,20 @@ use crate::settings::CaptureType;
 use glam::{Vec2, Vec3A};
 use std::f32::consts::FRAC_1_PI;
 
-/// A laser spot p_L on the scene and its NEE to the laser:
-/// radiance = E · W(p_L) · ρ/π · cosθ(p_L → o_L) · V(p_L, o_L).
+/// A laser spot p_L on the scene and its NEE to the laser: the light arriving there,
+/// E · W(p_L) · V(p_L, o_L), and, for a Lambertian spot, the radiance it sends towards any vertex
+/// above it, E · W(p_L) · ρ/π · cosθ(p_L → o_L) · V(p_L, o_L).
 #[derive(Clone, Copy, Debug)]
 pub struct Spot {
     /// The spot's surface point.
     pub it: Interaction,
-    /// Radiance leaving the spot towards any vertex above it (before that vertex's cosine).
-    pub radiance: Spectrum,
+    /// E · W(p_L) · V(p_L, o_L): zero where the laser does not reach.
+    pub incident: Spectrum,
+    /// Unit direction from the spot to the laser.
+    pub to_laser: Vec3A,
+    /// For a Lambertian spot, the radiance leaving it towards any vertex above it (before that
+    /// vertex's cosine); `None` when it depends on the direction (evaluate the spot's BSDF).
+    pub radiance: Option<Spectrum>,
     /// Optical path from the spot back to the laser, if it is accounted for (else 0).
     pub last_leg: f64,
     /// Whether the laser reaches a surface here at all.
@@ -34,7 +40,9 @@ impl Spot {
             ns: Vec3A::Z,
             shape: 0,
         },
-        radiance: Spectrum::ZERO,
+        incident: Spectrum::ZERO,
+        to_laser: Vec3A::Z,
+        radiance: Some(Spectrum::ZERO),
         last_leg: 0.0,
         hit: false,
     };
@@ -199,13 +207,21 @@ impl Illumination<'_> {
         } else {
             laser.weight_at(it.p)
         };
-        let visible = cos > 0.0 && weight > 0.0 && self.scene.visible(&it, laser.origin);
-        let rho = self.bsdfs[it.shape as usize].albedo();
-        let radiance = if visible {
-            self.irradiance * rho * (weight * FRAC_1_PI * cos)
+        let bsdf = &self.bsdfs[it.shape as usize];
+        let visible =
+            cos > 0.0 && weight > 0.0 && !bsdf.is_delta() && self.scene.visible(&it, laser.origin);
+        let incident = if visible {
+            self.irradiance * weight
         } else {
             Spectrum::ZERO
         };
+        let radiance = bsdf.albedo().map(|rho| {
+            if visible {
+                self.irradiance * rho * (weight * FRAC_1_PI * cos)
+            } else {
+                Spectrum::ZERO
+            }
+        });
         let last_leg = if self.nlos.settings.account_first_and_last_bounces {
             dist as f64
         } else {
@@ -213,6 +229,8 @@ impl Illumination<'_> {
         };
         Spot {
             it,
+            incident,
+            to_laser: w / dist,
             radiance,
             last_leg,
             hit: true,

@@ -256,6 +256,19 @@ impl Props {
         self.colour_as(key, default, true)
     }
 
+    /// An unbounded number or RGB triple (an index of refraction): a float, an `rgb` value or a
+    /// uniform `spectrum`; finite and non-negative.
+    pub fn unbounded(&self, key: &str, default: Colour) -> Result<Colour> {
+        if let Some(Value::Spectrum(_)) = self.entries.iter().find(|(k, _)| k == key).map(|e| &e.1)
+        {
+            return Err(self.err(
+                key,
+                "wavelength:value spectra are not supported here: give a float or rgb value",
+            ));
+        }
+        self.colour_as(key, default, true)
+    }
+
     /// An emitted colour (`irradiance`, `radiance`, `intensity`): as [`Props::colour`], but a
     /// `spectrum` is an illuminant (a uniform one is the equal-energy white of that value).
     pub fn emission(&self, key: &str, default: Colour) -> Result<Colour> {

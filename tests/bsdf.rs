@@ -46,28 +46,26 @@ fn from_cell(n: Vec3A, a: f64, b: f64) -> Vec3A {
     ))
 }
 
-/// χ² of `bsdf.sample` against `bsdf.pdf` for `wi`, and weight = eval/pdf on the samples.
+/// χ² of `bsdf.sample` against `bsdf.pdf` for `wi`, and weight = eval/pdf on the samples. A
+/// sample may fail (a microfacet reflection below the surface): that mass is missing from both
+/// the histogram and the pdf, whose integral is then below one.
 fn check_bsdf(name: &str, bsdf: &Bsdf<Spectrum>, n: Vec3A, wi: Vec3A) {
     let mut rng = Sampler::new(5, 6, 7);
     for _ in 0..2000 {
-        let s = bsdf.sample(n, wi, &mut rng).expect("a direction");
+        let Some(s) = bsdf.sample(n, wi, &mut rng) else {
+            continue;
+        };
         let f = bsdf.eval(n, wi, s.wo).unwrap_or(Spectrum::ZERO);
         let pdf = bsdf.pdf(n, wi, s.wo);
-        assert!((s.pdf - pdf).abs() <= 1e-4 * pdf.max(1.0), "{name}: pdf");
+        assert!((s.pdf - pdf).abs() <= 1e-3 * pdf.max(1.0), "{name}: pdf");
         assert!(
-            (s.weight - f / pdf).abs().max_element() < 1e-3,
+            (s.weight - f / pdf).abs().max_element() <= 1e-3 * s.weight.max_element().max(1.0),
             "{name}: weight"
         );
     }
-    let rng = std::cell::RefCell::new(Sampler::new(9, 8, 7));
     check(
         name,
-        |_| {
-            let s = bsdf
-                .sample(n, wi, &mut rng.borrow_mut())
-                .expect("a direction");
-            to_cell(n, s.wo)
-        },
+        |rng| bsdf.sample(n, wi, rng).map(|s| to_cell(n, s.wo)),
         |a, b| bsdf.pdf(n, wi, from_cell(n, a, b)) as f64 * 4.0 * PI,
     );
 }
@@ -104,4 +102,75 @@ fn twosided_reflects_each_side_with_its_own_bsdf_and_never_transmits() {
     assert!((front.x / back.x - 0.8 / 0.3).abs() < 1e-5);
     assert!(bsdf.eval(n, wi, -wo).is_none() && bsdf.eval(n, -wi, wo).is_none());
     assert_eq!(bsdf.pdf(n, wi, -wo), 0.0);
+}
+
+fn rough(kind: nlos_rs::bsdf::microfacet::Distribution, alpha: f32) -> Bsdf<Spectrum> {
+    Bsdf::RoughConductor(nlos_rs::bsdf::RoughConductor {
+        eta: Spectrum::new(0.2, 0.92, 1.1),
+        k: Spectrum::new(3.9, 2.45, 2.14),
+        specular_reflectance: Spectrum::ONE,
+        microfacet: nlos_rs::bsdf::microfacet::Microfacet { kind, alpha },
+    })
+}
+
+#[test]
+fn roughconductor_samples_its_pdf() {
+    use nlos_rs::bsdf::microfacet::Distribution::{Beckmann, Ggx};
+    let n = Vec3A::new(0.2, 0.3, 0.9).normalize();
+    for (kind, alpha) in [(Beckmann, 0.1), (Beckmann, 0.5), (Ggx, 0.2), (Ggx, 0.8)] {
+        for wi in [n, Vec3A::new(0.7, -0.2, 0.4).normalize()] {
+            check_bsdf(
+                &format!("{kind:?} alpha {alpha}"),
+                &rough(kind, alpha),
+                n,
+                wi,
+            );
+        }
+    }
+}
+
+#[test]
+fn conductor_fresnel_and_mirror_reflection() {
+    use nlos_rs::bsdf::{Conductor, fresnel};
+    let (eta, k) = (
+        Spectrum::new(0.2, 0.92, 1.1),
+        Spectrum::new(3.9, 2.45, 2.14),
+    );
+    // Normal incidence: ((η − 1)² + k²) / ((η + 1)² + k²); grazing: 1.
+    let f0 = fresnel::conductor(1.0, eta, k);
+    let expect = ((eta - 1.0) * (eta - 1.0) + k * k) / ((eta + 1.0) * (eta + 1.0) + k * k);
+    assert!(
+        (f0 - expect).abs().max_element() < 1e-6,
+        "{f0:?} vs {expect:?}"
+    );
+    assert!(
+        (fresnel::conductor(0.0, eta, k) - Spectrum::ONE)
+            .abs()
+            .max_element()
+            < 1e-6
+    );
+    // η = 0, k = 1 (material 'none') is a perfect mirror at every angle.
+    for c in [0.1, 0.5, 0.9] {
+        let f = fresnel::conductor(c, Spectrum::ZERO, Spectrum::ONE);
+        assert!((f - Spectrum::ONE).abs().max_element() < 1e-5, "{f:?}");
+    }
+    let mirror = Bsdf::Conductor(Conductor {
+        eta,
+        k,
+        specular_reflectance: Spectrum::splat(0.5),
+    });
+    let (n, wi) = (Vec3A::Z, Vec3A::new(0.6, 0.0, 0.8));
+    let mut rng = Sampler::new(1, 2, 3);
+    let s = mirror.sample(n, wi, &mut rng).expect("reflects");
+    assert!(s.delta && (s.wo - Vec3A::new(-0.6, 0.0, 0.8)).length() < 1e-6);
+    assert!(
+        (s.weight - fresnel::conductor(0.8, eta, k) * 0.5)
+            .abs()
+            .max_element()
+            < 1e-7
+    );
+    assert!(
+        mirror.is_delta() && mirror.eval(n, wi, s.wo).is_none() && mirror.pdf(n, wi, s.wo) == 0.0
+    );
+    assert!(mirror.sample(n, -wi, &mut rng).is_none());
 }

@@ -7,6 +7,11 @@ use glam::{Vec2, Vec3A};
 use nlos_rs::sampling::*;
 
 mod common;
+
+/// A warp of the unit square as a sampler for [`check`].
+fn warp(f: impl Fn(Vec2) -> Vec2) -> impl FnMut(&mut Sampler) -> Option<Vec2> {
+    move |rng| Some(f(rng.next_2d()))
+}
 use common::{N, Z_CRIT, check, chi2_z};
 use std::f32::consts::PI;
 
@@ -15,10 +20,10 @@ fn cosine_hemisphere_matches_pdf() {
     // Coordinates (cosθ, φ/2π); dω = d(cosθ) dφ, so the density there is pdf(ω)·2π.
     check(
         "cosine hemisphere",
-        |u| {
+        warp(|u| {
             let w = square_to_cosine_hemisphere(u);
             Vec2::new(w.z, (w.y.atan2(w.x) / (2.0 * PI)).rem_euclid(1.0))
-        },
+        }),
         |c, _| {
             square_to_cosine_hemisphere_pdf(Vec3A::new(0.0, 0.0, c as f32)) as f64
                 * 2.0
@@ -31,13 +36,13 @@ fn cosine_hemisphere_matches_pdf() {
 fn uniform_sphere_matches_pdf() {
     check(
         "uniform sphere",
-        |u| {
+        warp(|u| {
             let w = square_to_uniform_sphere(u);
             Vec2::new(
                 (w.z + 1.0) / 2.0,
                 (w.y.atan2(w.x) / (2.0 * PI)).rem_euclid(1.0),
             )
-        },
+        }),
         |_, _| UNIFORM_SPHERE_PDF as f64 * 4.0 * std::f64::consts::PI,
     );
 }
@@ -46,7 +51,7 @@ fn uniform_sphere_matches_pdf() {
 fn concentric_disk_matches_pdf() {
     check(
         "concentric disk",
-        |u| (square_to_uniform_disk_concentric(u) + Vec2::ONE) / 2.0,
+        warp(|u| (square_to_uniform_disk_concentric(u) + Vec2::ONE) / 2.0),
         |a, b| {
             square_to_uniform_disk_pdf(Vec2::new(2.0 * a as f32 - 1.0, 2.0 * b as f32 - 1.0)) as f64
                 * 4.0
@@ -57,9 +62,13 @@ fn concentric_disk_matches_pdf() {
 #[test]
 fn triangle_is_uniform() {
     // Barycentrics are uniform on the simplex {b1 + b2 ≤ 1} (density 2).
-    check("uniform triangle", square_to_uniform_triangle, |a, b| {
-        if a + b <= 1.0 { 2.0 } else { 0.0 }
-    });
+    check(
+        "uniform triangle",
+        warp(square_to_uniform_triangle),
+        |a, b| {
+            if a + b <= 1.0 { 2.0 } else { 0.0 }
+        },
+    );
 }
 
 #[test]

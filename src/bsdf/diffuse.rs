@@ -50,6 +50,7 @@ impl Diffuse<Spectrum> {
             wo: Frame::new(ns).to_world(local),
             weight: self.reflectance,
             pdf: local.z * FRAC_1_PI,
+            delta: false,
         })
     }
 

@@ -6,10 +6,17 @@
 //! where it comes from; `eval` includes the cosine at `wo`; directions and the shading normal `ns`
 //! are in world space.
 
+pub mod conductor;
 pub mod diffuse;
+pub mod fresnel;
+pub mod ior;
+pub mod microfacet;
+pub mod roughconductor;
 pub mod twosided;
 
+pub use conductor::Conductor;
 pub use diffuse::Diffuse;
+pub use roughconductor::RoughConductor;
 pub use twosided::TwoSided;
 
 use crate::error::{NlosError, Result};
@@ -25,10 +32,14 @@ pub enum Bsdf<S> {
     Diffuse(Diffuse<S>),
     /// `twosided`: a BSDF on both sides of the surface.
     TwoSided(TwoSided<S>),
+    /// `conductor`: a smooth metal (delta reflection).
+    Conductor(Conductor<S>),
+    /// `roughconductor`: a microfacet metal.
+    RoughConductor(RoughConductor<S>),
 }
 
 /// The plugin names [`Bsdf::from_props`] reads.
-pub const PLUGINS: [&str; 2] = ["diffuse", "twosided"];
+pub const PLUGINS: [&str; 4] = ["diffuse", "twosided", "conductor", "roughconductor"];
 
 /// A sampled direction and its weight.
 #[derive(Clone, Copy, Debug)]
@@ -37,8 +48,10 @@ pub struct BsdfSample {
     pub wo: Vec3A,
     /// f·cos / pdf.
     pub weight: Spectrum,
-    /// Solid-angle density of `wo`.
+    /// Solid-angle density of `wo` (1 for a delta component).
     pub pdf: f32,
+    /// Whether `wo` came from a Dirac delta component (a mirror): no connection can find it.
+    pub delta: bool,
 }
 
 impl Bsdf<Colour> {
@@ -52,6 +65,8 @@ impl Bsdf<Colour> {
         match p.plugin.as_str() {
             "diffuse" => Ok(Bsdf::Diffuse(Diffuse::from_props(p)?)),
             "twosided" => Ok(Bsdf::TwoSided(TwoSided::from_props(p)?)),
+            "conductor" => Ok(Bsdf::Conductor(Conductor::from_props(p)?)),
+            "roughconductor" => Ok(Bsdf::RoughConductor(RoughConductor::from_props(p)?)),
             other => Err(NlosError::prop(
                 other,
                 "type",
@@ -70,6 +85,17 @@ impl Bsdf<Colour> {
                 front: Box::new(t.front.resolve(mono)),
                 back: Box::new(t.back.resolve(mono)),
             }),
+            Bsdf::Conductor(c) => Bsdf::Conductor(Conductor {
+                eta: c.eta.spectrum(mono),
+                k: c.k.spectrum(mono),
+                specular_reflectance: c.specular_reflectance.spectrum(mono),
+            }),
+            Bsdf::RoughConductor(c) => Bsdf::RoughConductor(RoughConductor {
+                eta: c.eta.spectrum(mono),
+                k: c.k.spectrum(mono),
+                specular_reflectance: c.specular_reflectance.spectrum(mono),
+                microfacet: c.microfacet,
+            }),
         }
     }
 }
@@ -81,6 +107,8 @@ impl Bsdf<Spectrum> {
         match self {
             Bsdf::Diffuse(d) => d.eval(ns, wi, wo),
             Bsdf::TwoSided(t) => t.eval(ns, wi, wo),
+            Bsdf::Conductor(_) => None,
+            Bsdf::RoughConductor(c) => c.eval(ns, wi, wo),
         }
     }
 
@@ -90,6 +118,8 @@ impl Bsdf<Spectrum> {
         match self {
             Bsdf::Diffuse(d) => d.sample(ns, wi, rng),
             Bsdf::TwoSided(t) => t.sample(ns, wi, rng),
+            Bsdf::Conductor(c) => c.sample(ns, wi),
+            Bsdf::RoughConductor(c) => c.sample(ns, wi, rng),
         }
     }
 
@@ -99,16 +129,30 @@ impl Bsdf<Spectrum> {
         match self {
             Bsdf::Diffuse(d) => d.pdf(ns, wo),
             Bsdf::TwoSided(t) => t.pdf(ns, wi, wo),
+            Bsdf::Conductor(_) => 0.0,
+            Bsdf::RoughConductor(c) => c.pdf(ns, wi, wo),
+        }
+    }
+
+    /// Whether every component is a Dirac delta (nothing to connect to).
+    #[inline]
+    pub fn is_delta(&self) -> bool {
+        match self {
+            Bsdf::Diffuse(_) | Bsdf::RoughConductor(_) => false,
+            Bsdf::Conductor(_) => true,
+            Bsdf::TwoSided(t) => t.front.is_delta() && t.back.is_delta(),
         }
     }
 
     /// The albedo ρ of a view-independent (Lambertian) BSDF on the side the shading normal points
-    /// to, for caching a laser spot's next-event estimate once for every path that reaches it.
+    /// to, for caching a laser spot's next-event estimate once for every path that reaches it;
+    /// `None` for any other BSDF.
     #[inline]
-    pub fn albedo(&self) -> Spectrum {
+    pub fn albedo(&self) -> Option<Spectrum> {
         match self {
-            Bsdf::Diffuse(d) => d.reflectance,
+            Bsdf::Diffuse(d) => Some(d.reflectance),
             Bsdf::TwoSided(t) => t.front.albedo(),
+            Bsdf::Conductor(_) | Bsdf::RoughConductor(_) => None,
         }
     }
 }

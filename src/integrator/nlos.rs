@@ -84,7 +84,7 @@ impl<'a> NlosTracer<'a> {
     #[inline]
     fn connect_spot(&self, v: &Vertex, spot: &Spot, slot: usize, out: &mut impl FnMut(Splat)) {
         let (x, wi, beta, opl) = (&v.it, v.wi, v.beta, v.opl);
-        if spot.radiance == Spectrum::ZERO {
+        if spot.radiance == Some(Spectrum::ZERO) || spot.incident == Spectrum::ZERO {
             return;
         }
         let u = spot.it.p - x.p;
@@ -101,10 +101,18 @@ impl<'a> NlosTracer<'a> {
         if !self.scene.visible(x, spot.it.p) {
             return;
         }
+        // A glossy spot reflects the laser towards x by its BSDF (mitransient-model §3.5).
+        let radiance = match spot.radiance {
+            Some(r) => r,
+            None => match self.bsdf(&spot.it).eval(spot.it.ns, -w, spot.to_laser) {
+                Some(f_spot) => spot.incident * f_spot,
+                None => return,
+            },
+        };
         out(Splat {
             slot,
             opl: opl + r as f64 + spot.last_leg,
-            value: beta * f * spot.radiance * (cos_z / r2),
+            value: beta * f * radiance * (cos_z / r2),
         });
     }
 
@@ -249,8 +257,11 @@ impl Tracer for NlosTracer<'_> {
             if depth.saturating_add(1) >= st.max_depth {
                 break;
             }
+            // A mirror-like (delta) vertex cannot be connected to: no emitter sampling, and the
+            // path goes on by sampling its BSDF rather than towards hidden geometry.
+            let delta = self.bsdf(&it).is_delta();
             // ---- Emitter sampling
-            if st.keep(depth + offset) {
+            if st.keep(depth + offset) && !delta {
                 let v = Vertex { it, wi, beta, opl };
                 self.emitter_sampling(pixel, &v, out);
             }
@@ -262,7 +273,7 @@ impl Tracer for NlosTracer<'_> {
             let mut hidden = self
                 .hidden
                 .as_ref()
-                .filter(|_| st.hgs_max_depth.is_none_or(|m| depth < m));
+                .filter(|_| !delta && st.hgs_max_depth.is_none_or(|m| depth < m));
             if hidden.is_some() && st.hgs_rroulette {
                 // One of the two techniques at random; each is unbiased on its own, so the
                 // mixture is too (mitransient also divides by 1/2 here and doubles the result).

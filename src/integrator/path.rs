@@ -154,8 +154,9 @@ impl Tracer for PathTracer<'_> {
         let mut ray = self.camera.pixel_ray(pixel, width, height, rng.next_2d());
         let mut beta = Spectrum::ONE;
         let mut opl = 0.0f64;
-        // The previous vertex and its BSDF sampling density, for MIS on emission hits.
-        let mut prev: Option<(Vec3A, f32)> = None;
+        // The previous vertex and its BSDF sampling density (`None` after a delta reflection,
+        // which no light sample can find), for MIS on emission hits.
+        let mut prev: Option<(Vec3A, Option<f32>)> = None;
         let mut depth: u32 = 0;
         while let Some(hit) = self.scene.accel.intersect(ray.o, ray.d, ray.tmin, ray.tmax) {
             let it = self.scene.interaction(ray.o, ray.d, &hit);
@@ -173,9 +174,12 @@ impl Tracer for PathTracer<'_> {
                 && it.ns.dot(wi) > 0.0
                 && !(depth == 0 && st.discard_direct_light)
             {
-                let w = prev.map_or(1.0, |(px, bsdf_pdf)| {
-                    mis(bsdf_pdf, self.light_pdf(sampler, px, it.p, it.ng))
-                });
+                let w = match prev {
+                    Some((px, Some(bsdf_pdf))) => {
+                        mis(bsdf_pdf, self.light_pdf(sampler, px, it.p, it.ng))
+                    }
+                    _ => 1.0,
+                };
                 out(Splat {
                     slot: 0,
                     opl,
@@ -186,8 +190,10 @@ impl Tracer for PathTracer<'_> {
                 break;
             }
             let bsdf = &self.bsdfs[it.shape as usize];
-            // ---- Emitter sampling
-            self.sample_light(&Vertex { it, wi, beta, opl }, bsdf, rng, out);
+            // ---- Emitter sampling (not at a delta vertex: nothing to connect to)
+            if !bsdf.is_delta() {
+                self.sample_light(&Vertex { it, wi, beta, opl }, bsdf, rng, out);
+            }
             // ---- BSDF sampling
             let Some(s) = bsdf.sample(it.ns, wi, rng) else {
                 break;
@@ -196,7 +202,7 @@ impl Tracer for PathTracer<'_> {
             if !russian_roulette(&mut beta, depth, st.rr_depth, rng) {
                 break;
             }
-            prev = Some((it.p, s.pdf));
+            prev = Some((it.p, (!s.delta).then_some(s.pdf)));
             ray = Ray {
                 o: it.offset_origin(s.wo),
                 d: s.wo,

@@ -20,9 +20,7 @@ use std::path::Path;
 const SHAPES: [&str; 6] = ["obj", "ply", "rectangle", "disk", "cube", "sphere"];
 
 /// Mitsuba's BSDF plugins that nlos_rs does not read yet (an error names them as BSDFs).
-const OTHER_BSDFS: [&str; 15] = [
-    "conductor",
-    "roughconductor",
+const OTHER_BSDFS: [&str; 13] = [
     "dielectric",
     "thindielectric",
     "roughdielectric",

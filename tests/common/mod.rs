@@ -34,15 +34,21 @@ pub fn chi2_z(obs: &[f64], exp: &[f64]) -> f64 {
     ((chi2 / k).powf(1.0 / 3.0) - (1.0 - 2.0 / (9.0 * k))) / (2.0 / (9.0 * k)).sqrt()
 }
 
-/// Test a 2D-parametrised warp: `cell(sample)` gives (a, b) ∈ [0,1)², `pdf(a, b)` the density in
-/// those coordinates (already including the Jacobian).
-pub fn check(name: &str, warp: impl Fn(Vec2) -> Vec2, pdf: impl Fn(f64, f64) -> f64) {
+/// χ² test of a 2D-parametrised sampler: `draw` gives cells (a, b) ∈ [0,1)² (or `None` for a
+/// failed sample, whose mass is then missing from `pdf` too), `pdf(a, b)` the density in those
+/// coordinates (already including the Jacobian).
+pub fn check(
+    name: &str,
+    mut draw: impl FnMut(&mut Sampler) -> Option<Vec2>,
+    pdf: impl Fn(f64, f64) -> f64,
+) {
     let mut rng = Sampler::new(7, 1, 2);
     let mut obs = vec![0.0; RES * RES];
     for _ in 0..N {
-        let c = warp(rng.next_2d());
-        let (i, j) = ((c.x * RES as f32) as usize, (c.y * RES as f32) as usize);
-        obs[j.min(RES - 1) * RES + i.min(RES - 1)] += 1.0;
+        if let Some(c) = draw(&mut rng) {
+            let (i, j) = ((c.x * RES as f32) as usize, (c.y * RES as f32) as usize);
+            obs[j.min(RES - 1) * RES + i.min(RES - 1)] += 1.0;
+        }
     }
     let sub = 40; // fine enough that boundary cells are integrated to well under their noise
     let h = 1.0 / (RES * sub) as f64;

@@ -16,7 +16,9 @@ import yaml
 import nlos_rs
 
 
-def config(**overrides) -> dict:
+def config(z_material=None, **overrides) -> dict:
+    """tal's defaults with our Z mesh 1 m behind the relay wall; `z_material` is one of tal's
+    built-in materials for the Z (default white), e.g. {"id": "copper", "alpha": "0.3"}."""
     import tal
 
     with open(os.path.join(os.path.dirname(tal.__file__), "render", "scene_defaults.yaml")) as f:
@@ -24,7 +26,7 @@ def config(**overrides) -> dict:
     c["mitsuba_variant"] = "llvm_ad_mono"
     c["geometry"] = [
         {"name": "Z", "mesh": {"type": "obj", "filename": nlos_rs.scenes.z_mesh_path()}, "displacement_z": 1.0,
-         "material": {"id": "white"}},
+         "material": z_material or {"id": "white"}},
         {"name": "relay_wall", "mesh": {"type": "rectangle"}, "material": {"id": "white"}},
     ]
     c.update(overrides)

@@ -1,0 +1,161 @@
+//! Mitsuba's `roughconductor`: a metal with microfacet roughness (Walter et al. 2007),
+//! f = F(wi·h)·D(h)·G(wi, wo, h) / (4 cos θ_i cos θ_o) with h the half vector, one-sided.
+//! Sampled by picking a microfacet normal ∝ D·cos θ_m and reflecting `wi` about it.
+//!
+//! | key | type | default |
+//! |---|---|---|
+//! | `material`, `eta`, `k` | as `conductor` | `none` |
+//! | `distribution` | `beckmann` or `ggx` | `beckmann` |
+//! | `alpha` (or equal `alpha_u`, `alpha_v`) | float > 0: roughness | 0.1 |
+//! | `sample_visible` | bool: Mitsuba's sampling strategy; accepted, results are the same in expectation | true |
+//! | `specular_reflectance` | float, rgb or spectrum | 1 |
+
+use super::conductor::complex_ior;
+use super::microfacet::{Distribution, Microfacet};
+use super::{BsdfSample, fresnel};
+use crate::error::{NlosError, Result};
+use crate::math::{Frame, Spectrum};
+use crate::props::{Colour, Props};
+use crate::sampling::Sampler;
+use glam::Vec3A;
+
+/// A rough conductor.
+#[derive(Clone, Debug)]
+pub struct RoughConductor<S> {
+    /// Real part of the index of refraction.
+    pub eta: S,
+    /// Imaginary part.
+    pub k: S,
+    /// Factor on the reflectance.
+    pub specular_reflectance: S,
+    /// Microfacet distribution.
+    pub microfacet: Microfacet,
+}
+
+/// `distribution` and `alpha` (or `alpha_u` = `alpha_v`), as Mitsuba's microfacet plugins read them.
+pub(super) fn microfacet(p: &Props) -> Result<Microfacet> {
+    let kind = match p
+        .string("distribution", "beckmann")?
+        .to_lowercase()
+        .as_str()
+    {
+        "beckmann" => Distribution::Beckmann,
+        "ggx" => Distribution::Ggx,
+        other => {
+            return Err(NlosError::prop(
+                &p.plugin,
+                "distribution",
+                format!("must be 'beckmann' or 'ggx', got '{other}'"),
+            ));
+        }
+    };
+    let alpha = match (p.has("alpha_u") || p.has("alpha_v"), p.has("alpha")) {
+        (true, true) => {
+            return Err(NlosError::prop(
+                &p.plugin,
+                "alpha",
+                "give either alpha or alpha_u and alpha_v",
+            ));
+        }
+        (true, false) => {
+            let (u, v) = (p.float("alpha_u", 0.0)?, p.float("alpha_v", 0.0)?);
+            if u != v {
+                return Err(NlosError::prop(
+                    &p.plugin,
+                    "alpha_u",
+                    "anisotropic roughness (alpha_u != alpha_v) is not supported",
+                ));
+            }
+            u
+        }
+        (false, _) => p.float("alpha", 0.1)?,
+    };
+    if !(alpha > 1e-4 && alpha < 1e3) {
+        return Err(NlosError::prop(
+            &p.plugin,
+            "alpha",
+            format!("must be in (1e-4, 1e3), got {alpha}"),
+        ));
+    }
+    p.bool("sample_visible", true)?;
+    Ok(Microfacet {
+        kind,
+        alpha: alpha as f32,
+    })
+}
+
+impl RoughConductor<Colour> {
+    /// Read a `roughconductor`.
+    pub fn from_props(p: &Props) -> Result<Self> {
+        let (eta, k) = complex_ior(p)?;
+        let microfacet = microfacet(p)?;
+        let specular_reflectance = p.colour("specular_reflectance", Colour::Uniform(1.0))?;
+        p.finish()?;
+        Ok(Self {
+            eta,
+            k,
+            specular_reflectance,
+            microfacet,
+        })
+    }
+}
+
+impl RoughConductor<Spectrum> {
+    /// f·cos θ_o in the local frame.
+    fn eval_local(&self, wi: Vec3A, wo: Vec3A) -> Option<Spectrum> {
+        if wi.z <= 0.0 || wo.z <= 0.0 {
+            return None;
+        }
+        let h = (wi + wo).normalize();
+        let d = self.microfacet.d(h);
+        if d == 0.0 {
+            return None;
+        }
+        let value = d * self.microfacet.g(wi, wo, h) / (4.0 * wi.z);
+        let f = fresnel::conductor(wi.dot(h), self.eta, self.k);
+        Some(f * self.specular_reflectance * value)
+    }
+
+    /// Density of [`RoughConductor::sample`] in the local frame.
+    fn pdf_local(&self, wi: Vec3A, wo: Vec3A) -> f32 {
+        if wi.z <= 0.0 || wo.z <= 0.0 {
+            return 0.0;
+        }
+        let h = (wi + wo).normalize();
+        self.microfacet.pdf(h) / (4.0 * wo.dot(h))
+    }
+
+    /// f·cos θ_o.
+    #[inline]
+    pub fn eval(&self, ns: Vec3A, wi: Vec3A, wo: Vec3A) -> Option<Spectrum> {
+        let f = Frame::new(ns);
+        self.eval_local(f.to_local(wi), f.to_local(wo))
+    }
+
+    /// Reflect `wi` about a microfacet normal drawn ∝ D·cos θ_m.
+    #[inline]
+    pub fn sample(&self, ns: Vec3A, wi: Vec3A, rng: &mut Sampler) -> Option<BsdfSample> {
+        let f = Frame::new(ns);
+        let wi_l = f.to_local(wi);
+        if wi_l.z <= 0.0 {
+            return None;
+        }
+        let m = self.microfacet.sample(rng.next_2d());
+        let wo_l = 2.0 * wi_l.dot(m) * m - wi_l;
+        let value = self.eval_local(wi_l, wo_l)?;
+        let pdf = self.pdf_local(wi_l, wo_l);
+        (pdf > 0.0).then(|| BsdfSample {
+            wo: f.to_world(wo_l),
+            weight: value / pdf,
+            pdf,
+            delta: false,
+        })
+    }
+
+    /// Density of [`RoughConductor::sample`].
+    #[inline]
+    pub fn pdf(&self, ns: Vec3A, wi: Vec3A, wo: Vec3A) -> f32 {
+        let f = Frame::new(ns);
+        self.pdf_local(f.to_local(wi), f.to_local(wo))
+    }
+}
