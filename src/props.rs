@@ -221,6 +221,18 @@ impl Props {
         }
     }
 
+    /// A property that is a number or a name (an index of refraction): `Some(Ok(number))`,
+    /// `Some(Err(name))` or `None` when absent.
+    pub fn string_or_float(&self, key: &str) -> Result<Option<std::result::Result<f64, String>>> {
+        match self.take(key) {
+            None => Ok(None),
+            Some(Value::Float(v)) => Ok(Some(Ok(*v))),
+            Some(Value::Int(v)) => Ok(Some(Ok(*v as f64))),
+            Some(Value::Str(s)) => Ok(Some(Err(s.clone()))),
+            Some(v) => Err(self.wrong(key, "a number or a name", v)),
+        }
+    }
+
     /// Point / vector property.
     pub fn vec3(&self, key: &str, default: [f64; 3]) -> Result<[f64; 3]> {
         match self.take(key) {

@@ -47,12 +47,13 @@ fn from_cell(n: Vec3A, a: f64, b: f64) -> Vec3A {
 }
 
 /// χ² of `bsdf.sample` against `bsdf.pdf` for `wi`, and weight = eval/pdf on the samples. A
-/// sample may fail (a microfacet reflection below the surface): that mass is missing from both
-/// the histogram and the pdf, whose integral is then below one.
+/// sample may fail (a microfacet reflection below the surface) or be a delta (a coating's
+/// mirror reflection): that mass is missing from both the histogram and the pdf, whose integral
+/// is then below one.
 fn check_bsdf(name: &str, bsdf: &Bsdf<Spectrum>, n: Vec3A, wi: Vec3A) {
     let mut rng = Sampler::new(5, 6, 7);
     for _ in 0..2000 {
-        let Some(s) = bsdf.sample(n, wi, &mut rng) else {
+        let Some(s) = bsdf.sample(n, wi, &mut rng).filter(|s| !s.delta) else {
             continue;
         };
         let f = bsdf.eval(n, wi, s.wo).unwrap_or(Spectrum::ZERO);
@@ -65,7 +66,12 @@ fn check_bsdf(name: &str, bsdf: &Bsdf<Spectrum>, n: Vec3A, wi: Vec3A) {
     }
     check(
         name,
-        |rng| bsdf.sample(n, wi, rng).map(|s| to_cell(n, s.wo)),
+        // Delta samples (a coating's mirror reflection) are outside `pdf`: not binned.
+        |rng| {
+            bsdf.sample(n, wi, rng)
+                .filter(|s| !s.delta)
+                .map(|s| to_cell(n, s.wo))
+        },
         |a, b| bsdf.pdf(n, wi, from_cell(n, a, b)) as f64 * 4.0 * PI,
     );
 }
@@ -173,4 +179,82 @@ fn conductor_fresnel_and_mirror_reflection() {
         mirror.is_delta() && mirror.eval(n, wi, s.wo).is_none() && mirror.pdf(n, wi, s.wo) == 0.0
     );
     assert!(mirror.sample(n, -wi, &mut rng).is_none());
+}
+
+#[test]
+fn plastic_diffuse_part_samples_its_pdf_and_the_coating_reflects_with_fresnel() {
+    use nlos_rs::bsdf::{Plastic, fresnel};
+    let plastic = Bsdf::Plastic(Plastic {
+        diffuse_reflectance: Spectrum::new(0.6, 0.3, 0.1),
+        specular_reflectance: Spectrum::ONE,
+        eta: 1.49,
+        nonlinear: false,
+    });
+    let n = Vec3A::new(0.1, -0.3, 0.9).normalize();
+    let wi = Vec3A::new(0.5, 0.1, 0.6).normalize();
+    check_bsdf("plastic", &plastic, n, wi);
+    // The delta part: the mirror direction, with weight F_i / P(specular); averaged over the
+    // lobe choice the specular weight is F_i.
+    let (mut rng, mut spec) = (Sampler::new(1, 1, 1), Spectrum::ZERO);
+    let trials = 200_000;
+    for _ in 0..trials {
+        if let Some(s) = plastic.sample(n, wi, &mut rng).filter(|s| s.delta) {
+            assert!((s.wo - (2.0 * n.dot(wi) * n - wi)).length() < 1e-5);
+            spec += s.weight;
+        }
+    }
+    let f_i = fresnel::dielectric(n.dot(wi), 1.49).0;
+    assert!(
+        (spec.x / trials as f32 - f_i).abs() < 0.01 * f_i + 1e-3,
+        "{spec:?} vs {f_i}"
+    );
+}
+
+#[test]
+fn dielectric_refracts_by_snell_and_chooses_by_fresnel() {
+    use nlos_rs::bsdf::{Dielectric, ThinDielectric, fresnel};
+    let glass = Bsdf::Dielectric(Dielectric {
+        eta: 1.5,
+        specular_reflectance: Spectrum::ONE,
+        specular_transmittance: Spectrum::ONE,
+    });
+    let n = Vec3A::Z;
+    let wi = Vec3A::new(0.6, 0.0, 0.8);
+    let (r, cos_t, eta_it, _) = fresnel::dielectric(0.8, 1.5);
+    assert!((eta_it - 1.5).abs() < 1e-6 && cos_t < 0.0);
+    let mut rng = Sampler::new(2, 2, 2);
+    let (mut reflected, trials) = (0usize, 100_000);
+    for _ in 0..trials {
+        let s = glass.sample(n, wi, &mut rng).expect("an event");
+        assert!(s.delta);
+        if s.wo.z > 0.0 {
+            reflected += 1;
+            assert!(s.eta == 1.0 && (s.weight - Spectrum::ONE).abs().max_element() < 1e-6);
+        } else {
+            // Snell: sin θ_t = sin θ_i / η; radiance scaled by (1/η)².
+            assert!((s.wo.x - (-0.6 / 1.5)).abs() < 1e-5 && (s.wo.length() - 1.0).abs() < 1e-5);
+            assert!(s.eta == 1.5 && (s.weight.x - 1.0 / 2.25).abs() < 1e-5);
+        }
+    }
+    let frac = reflected as f32 / trials as f32;
+    assert!(
+        (frac - r).abs() < 4.0 * (r * (1.0 - r) / trials as f32).sqrt(),
+        "{frac} vs {r}"
+    );
+    // From inside at a grazing angle: total internal reflection.
+    let inside = Vec3A::new(0.9, 0.0, -(1.0f32 - 0.81).sqrt());
+    for _ in 0..100 {
+        let s = glass.sample(n, inside, &mut rng).expect("an event");
+        assert!(s.wo.z < 0.0 && s.eta == 1.0);
+    }
+    // A thin sheet: straight through or mirrored, the optical speed unchanged.
+    let sheet = Bsdf::ThinDielectric(ThinDielectric {
+        eta: 1.5,
+        specular_reflectance: Spectrum::ONE,
+        specular_transmittance: Spectrum::ONE,
+    });
+    for _ in 0..100 {
+        let s = sheet.sample(n, wi, &mut rng).expect("an event");
+        assert!(s.eta == 1.0 && ((s.wo + wi).length() < 1e-6 || (s.wo.z - 0.8).abs() < 1e-6));
+    }
 }

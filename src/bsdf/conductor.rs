@@ -79,6 +79,7 @@ impl Conductor<Spectrum> {
             weight: fresnel::conductor(cos_i, self.eta, self.k) * self.specular_reflectance,
             pdf: 1.0,
             delta: true,
+            eta: 1.0,
         })
     }
 }

@@ -51,6 +51,7 @@ impl Diffuse<Spectrum> {
             weight: self.reflectance,
             pdf: local.z * FRAC_1_PI,
             delta: false,
+            eta: 1.0,
         })
     }
 

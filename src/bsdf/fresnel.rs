@@ -25,3 +25,39 @@ pub fn conductor(cos_i: f32, eta: Spectrum, k: Spectrum) -> Spectrum {
         channel(eta.z, k.z),
     )
 }
+
+/// Fresnel reflectance of a dielectric interface with relative index `eta` (inside / outside) at
+/// incidence cosine `cos_i` (negative: arriving from inside). Returns (F, cos θ_t, η_it, η_ti):
+/// cos θ_t carries the opposite sign of `cos_i`; η_it is the relative index in the direction of
+/// travel, η_ti its reciprocal (the scale of a refracted direction's tangential part).
+pub fn dielectric(cos_i: f32, eta: f32) -> (f32, f32, f32, f32) {
+    let (eta_it, eta_ti) = if cos_i >= 0.0 {
+        (eta, 1.0 / eta)
+    } else {
+        (1.0 / eta, eta)
+    };
+    let cos_t2 = 1.0 - (1.0 - cos_i * cos_i) * eta_ti * eta_ti;
+    let (ci, ct) = (cos_i.abs(), cos_t2.max(0.0).sqrt());
+    let r = if eta == 1.0 {
+        0.0
+    } else if ci == 0.0 {
+        1.0
+    } else {
+        let a_s = (ci - eta_it * ct) / (ci + eta_it * ct);
+        let a_p = (ct - eta_it * ci) / (ct + eta_it * ci);
+        0.5 * (a_s * a_s + a_p * a_p)
+    };
+    (r, if cos_i >= 0.0 { -ct } else { ct }, eta_it, eta_ti)
+}
+
+/// Mean Fresnel reflectance over a cosine-weighted hemisphere (Egan and Hilgeman 1973 for
+/// η < 1, d'Eon and Irving 2011 otherwise), as Mitsuba approximates it for `plastic`.
+pub fn diffuse_reflectance(eta: f32) -> f32 {
+    let inv = 1.0 / eta;
+    if eta < 1.0 {
+        0.0636 * inv + eta * (eta * -1.4399 + 0.7099) + 0.6681
+    } else {
+        let c = [0.919317, -3.4793, 6.75335, -7.80989, 4.98554, -1.36881];
+        c.iter().rev().fold(0.0, |acc, k| acc * inv + k)
+    }
+}

@@ -1,4 +1,5 @@
-//! Complex indices of refraction of Mitsuba's named conductor materials (`material` of
+//! Named indices of refraction. Dielectrics: Mitsuba's table of real indices. Conductors: the
+//! complex indices of refraction of Mitsuba's named conductor materials (`material` of
 //! `conductor` and `roughconductor`), as linear-sRGB triples: Mitsuba 3 tabulates these spectra
 //! (the data PBRT distributes, after Palik et al., "Handbook of Optical Constants of Solids") and
 //! reduces them to RGB in its RGB variants; these are the values it uses there. Mono variants use
@@ -80,4 +81,46 @@ pub fn conductor(name: &str) -> Option<([f64; 3], [f64; 3])> {
         .iter()
         .find(|(n, _, _)| *n == name)
         .map(|(_, eta, k)| (*eta, *k))
+}
+
+/// Mitsuba's named indices of refraction of dielectrics (`int_ior`, `ext_ior`).
+#[rustfmt::skip]
+pub const DIELECTRICS: [(&str, f32); 23] = [
+    ("vacuum", 1.0), ("helium", 1.000036), ("hydrogen", 1.000132), ("air", 1.000277),
+    ("carbon dioxide", 1.00045), ("water", 1.3330), ("acetone", 1.36), ("ethanol", 1.361),
+    ("carbon tetrachloride", 1.461), ("glycerol", 1.4729), ("benzene", 1.501),
+    ("silicone oil", 1.52045), ("bromine", 1.661), ("water ice", 1.31), ("fused quartz", 1.458),
+    ("pyrex", 1.470), ("acrylic glass", 1.49), ("polypropylene", 1.49), ("bk7", 1.5046),
+    ("sodium chloride", 1.544), ("amber", 1.55), ("pet", 1.5750), ("diamond", 2.419),
+];
+
+/// An index of refraction given as a number or a name (`int_ior`, `ext_ior`), as Mitsuba reads it.
+pub fn read_ior(p: &crate::props::Props, key: &str, default: &str) -> crate::error::Result<f32> {
+    let v = match p.string_or_float(key)? {
+        Some(Ok(v)) => v as f32,
+        Some(Err(name)) => lookup(p, key, &name)?,
+        None => lookup(p, key, default)?,
+    };
+    if !(v > 0.0 && v.is_finite()) {
+        return Err(crate::error::NlosError::prop(
+            &p.plugin,
+            key,
+            "must be positive",
+        ));
+    }
+    Ok(v)
+}
+
+fn lookup(p: &crate::props::Props, key: &str, name: &str) -> crate::error::Result<f32> {
+    DIELECTRICS
+        .iter()
+        .find(|(n, _)| n.eq_ignore_ascii_case(name))
+        .map(|(_, v)| *v)
+        .ok_or_else(|| {
+            crate::error::NlosError::prop(
+                &p.plugin,
+                key,
+                format!("unknown index of refraction '{name}'"),
+            )
+        })
 }

@@ -7,16 +7,22 @@
 //! are in world space.
 
 pub mod conductor;
+pub mod dielectric;
 pub mod diffuse;
 pub mod fresnel;
 pub mod ior;
 pub mod microfacet;
+pub mod plastic;
 pub mod roughconductor;
+pub mod thindielectric;
 pub mod twosided;
 
 pub use conductor::Conductor;
+pub use dielectric::Dielectric;
 pub use diffuse::Diffuse;
+pub use plastic::Plastic;
 pub use roughconductor::RoughConductor;
+pub use thindielectric::ThinDielectric;
 pub use twosided::TwoSided;
 
 use crate::error::{NlosError, Result};
@@ -36,10 +42,24 @@ pub enum Bsdf<S> {
     Conductor(Conductor<S>),
     /// `roughconductor`: a microfacet metal.
     RoughConductor(RoughConductor<S>),
+    /// `dielectric`: smooth glass (delta reflection and refraction).
+    Dielectric(Dielectric<S>),
+    /// `thindielectric`: a thin sheet (delta reflection and straight transmission).
+    ThinDielectric(ThinDielectric<S>),
+    /// `plastic`: a diffuse base under a smooth coating.
+    Plastic(Plastic<S>),
 }
 
 /// The plugin names [`Bsdf::from_props`] reads.
-pub const PLUGINS: [&str; 4] = ["diffuse", "twosided", "conductor", "roughconductor"];
+pub const PLUGINS: [&str; 7] = [
+    "diffuse",
+    "twosided",
+    "conductor",
+    "roughconductor",
+    "dielectric",
+    "thindielectric",
+    "plastic",
+];
 
 /// A sampled direction and its weight.
 #[derive(Clone, Copy, Debug)]
@@ -52,6 +72,9 @@ pub struct BsdfSample {
     pub pdf: f32,
     /// Whether `wo` came from a Dirac delta component (a mirror): no connection can find it.
     pub delta: bool,
+    /// Relative index of refraction in the direction of travel (1 unless refracted): light is
+    /// that much slower beyond the surface.
+    pub eta: f32,
 }
 
 impl Bsdf<Colour> {
@@ -67,6 +90,9 @@ impl Bsdf<Colour> {
             "twosided" => Ok(Bsdf::TwoSided(TwoSided::from_props(p)?)),
             "conductor" => Ok(Bsdf::Conductor(Conductor::from_props(p)?)),
             "roughconductor" => Ok(Bsdf::RoughConductor(RoughConductor::from_props(p)?)),
+            "dielectric" => Ok(Bsdf::Dielectric(Dielectric::from_props(p)?)),
+            "thindielectric" => Ok(Bsdf::ThinDielectric(ThinDielectric::from_props(p)?)),
+            "plastic" => Ok(Bsdf::Plastic(Plastic::from_props(p)?)),
             other => Err(NlosError::prop(
                 other,
                 "type",
@@ -96,6 +122,22 @@ impl Bsdf<Colour> {
                 specular_reflectance: c.specular_reflectance.spectrum(mono),
                 microfacet: c.microfacet,
             }),
+            Bsdf::Dielectric(d) => Bsdf::Dielectric(Dielectric {
+                eta: d.eta,
+                specular_reflectance: d.specular_reflectance.spectrum(mono),
+                specular_transmittance: d.specular_transmittance.spectrum(mono),
+            }),
+            Bsdf::ThinDielectric(d) => Bsdf::ThinDielectric(ThinDielectric {
+                eta: d.eta,
+                specular_reflectance: d.specular_reflectance.spectrum(mono),
+                specular_transmittance: d.specular_transmittance.spectrum(mono),
+            }),
+            Bsdf::Plastic(p) => Bsdf::Plastic(Plastic {
+                diffuse_reflectance: p.diffuse_reflectance.spectrum(mono),
+                specular_reflectance: p.specular_reflectance.spectrum(mono),
+                eta: p.eta,
+                nonlinear: p.nonlinear,
+            }),
         }
     }
 }
@@ -107,8 +149,9 @@ impl Bsdf<Spectrum> {
         match self {
             Bsdf::Diffuse(d) => d.eval(ns, wi, wo),
             Bsdf::TwoSided(t) => t.eval(ns, wi, wo),
-            Bsdf::Conductor(_) => None,
+            Bsdf::Conductor(_) | Bsdf::Dielectric(_) | Bsdf::ThinDielectric(_) => None,
             Bsdf::RoughConductor(c) => c.eval(ns, wi, wo),
+            Bsdf::Plastic(p) => p.eval(ns, wi, wo),
         }
     }
 
@@ -120,6 +163,9 @@ impl Bsdf<Spectrum> {
             Bsdf::TwoSided(t) => t.sample(ns, wi, rng),
             Bsdf::Conductor(c) => c.sample(ns, wi),
             Bsdf::RoughConductor(c) => c.sample(ns, wi, rng),
+            Bsdf::Dielectric(d) => d.sample(ns, wi, rng),
+            Bsdf::ThinDielectric(d) => d.sample(ns, wi, rng),
+            Bsdf::Plastic(p) => p.sample(ns, wi, rng),
         }
     }
 
@@ -129,8 +175,9 @@ impl Bsdf<Spectrum> {
         match self {
             Bsdf::Diffuse(d) => d.pdf(ns, wo),
             Bsdf::TwoSided(t) => t.pdf(ns, wi, wo),
-            Bsdf::Conductor(_) => 0.0,
+            Bsdf::Conductor(_) | Bsdf::Dielectric(_) | Bsdf::ThinDielectric(_) => 0.0,
             Bsdf::RoughConductor(c) => c.pdf(ns, wi, wo),
+            Bsdf::Plastic(p) => p.pdf(ns, wi, wo),
         }
     }
 
@@ -138,9 +185,21 @@ impl Bsdf<Spectrum> {
     #[inline]
     pub fn is_delta(&self) -> bool {
         match self {
-            Bsdf::Diffuse(_) | Bsdf::RoughConductor(_) => false,
-            Bsdf::Conductor(_) => true,
+            Bsdf::Diffuse(_) | Bsdf::RoughConductor(_) | Bsdf::Plastic(_) => false,
+            Bsdf::Conductor(_) | Bsdf::Dielectric(_) | Bsdf::ThinDielectric(_) => true,
             Bsdf::TwoSided(t) => t.front.is_delta() && t.back.is_delta(),
+        }
+    }
+
+    /// Whether some component is a Dirac delta: a technique that only connects (hidden-geometry
+    /// sampling) would miss it, so the path must go on by sampling the BSDF.
+    #[inline]
+    pub fn has_delta(&self) -> bool {
+        match self {
+            Bsdf::Diffuse(_) | Bsdf::RoughConductor(_) => false,
+            Bsdf::Conductor(_) | Bsdf::Dielectric(_) | Bsdf::ThinDielectric(_) => true,
+            Bsdf::Plastic(_) => true,
+            Bsdf::TwoSided(t) => t.front.has_delta() || t.back.has_delta(),
         }
     }
 
@@ -152,7 +211,7 @@ impl Bsdf<Spectrum> {
         match self {
             Bsdf::Diffuse(d) => Some(d.reflectance),
             Bsdf::TwoSided(t) => t.front.albedo(),
-            Bsdf::Conductor(_) | Bsdf::RoughConductor(_) => None,
+            _ => None,
         }
     }
 }

@@ -149,6 +149,7 @@ impl RoughConductor<Spectrum> {
             weight: value / pdf,
             pdf,
             delta: false,
+            eta: 1.0,
         })
     }
 

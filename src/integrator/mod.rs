@@ -37,6 +37,8 @@ pub struct Step {
     pub dist: f32,
     /// f·cos/pdf of the step (including any geometry term of an area-measure sample).
     pub weight: Spectrum,
+    /// Relative index of refraction crossed (1 unless the step refracted).
+    pub eta: f32,
 }
 
 /// A path at a surface vertex: where it is, the direction back along the path, its throughput and
@@ -51,6 +53,8 @@ pub struct Vertex {
     pub beta: Spectrum,
     /// Optical path length so far.
     pub opl: f64,
+    /// Index of refraction of the medium the path is in (relative to where it started).
+    pub eta: f32,
 }
 
 /// A path sampler for one pixel of a film.
@@ -60,16 +64,18 @@ pub trait Tracer: Sync {
 }
 
 /// Russian roulette as Mitsuba does it: a path with zero throughput ends; from loop depth `rr_depth`
-/// on it survives with probability q = min(max β, 0.95) and β is divided by q. Returns whether the
-/// path goes on.
+/// on it survives with probability q = min(max β · η², 0.95) and β is divided by q (η² undoes the
+/// radiance scaling of refraction, so a path inside glass is not killed for it). Returns whether
+/// the path goes on.
 #[inline]
 pub(crate) fn russian_roulette(
     beta: &mut Spectrum,
+    eta: f32,
     depth: u32,
     rr_depth: u32,
     rng: &mut Sampler,
 ) -> bool {
-    let m = beta.max_element();
+    let m = beta.max_element() * (eta * eta);
     if !(m > 0.0) {
         return false;
     }

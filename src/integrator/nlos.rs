@@ -83,7 +83,7 @@ impl<'a> NlosTracer<'a> {
     /// whose NEE is cached in `spot`.
     #[inline]
     fn connect_spot(&self, v: &Vertex, spot: &Spot, slot: usize, out: &mut impl FnMut(Splat)) {
-        let (x, wi, beta, opl) = (&v.it, v.wi, v.beta, v.opl);
+        let (x, wi, beta, opl, eta) = (&v.it, v.wi, v.beta, v.opl, v.eta);
         if spot.radiance == Some(Spectrum::ZERO) || spot.incident == Spectrum::ZERO {
             return;
         }
@@ -111,7 +111,7 @@ impl<'a> NlosTracer<'a> {
         };
         out(Splat {
             slot,
-            opl: opl + r as f64 + spot.last_leg,
+            opl: opl + (r * eta) as f64 + spot.last_leg,
             value: beta * f * radiance * (cos_z / r2),
         });
     }
@@ -120,7 +120,7 @@ impl<'a> NlosTracer<'a> {
     /// laser sampling.
     #[inline]
     fn nee_laser(&self, v: &Vertex, out: &mut impl FnMut(Splat)) {
-        let (x, wi, beta, opl) = (&v.it, v.wi, v.beta, v.opl);
+        let (x, wi, beta, opl, eta) = (&v.it, v.wi, v.beta, v.opl, v.eta);
         let weight = self.laser.weight_at(x.p);
         if weight == 0.0 {
             return;
@@ -134,7 +134,7 @@ impl<'a> NlosTracer<'a> {
             return;
         }
         let last = if self.settings.account_first_and_last_bounces {
-            r as f64
+            (r * eta) as f64
         } else {
             0.0
         };
@@ -173,6 +173,7 @@ impl<'a> NlosTracer<'a> {
             next: y,
             dist: r,
             weight: f * (hg.total_area() * cos_g / r2),
+            eta: 1.0,
         })
     }
 
@@ -187,6 +188,7 @@ impl<'a> NlosTracer<'a> {
             next: hit,
             dist: (hit.p - x.p).length(),
             weight: s.weight,
+            eta: s.eta,
         })
     }
 
@@ -209,6 +211,7 @@ impl<'a> NlosTracer<'a> {
             it,
             wi: (sensor - it.p).normalize(),
             beta: Spectrum::ONE,
+            eta: 1.0,
             opl: if account {
                 (sensor - it.p).length() as f64
             } else {
@@ -245,6 +248,7 @@ impl Tracer for NlosTracer<'_> {
             mut wi,
             mut beta,
             mut opl,
+            mut eta,
         }) = self.first_vertex(pixel, rng)
         else {
             return;
@@ -257,12 +261,20 @@ impl Tracer for NlosTracer<'_> {
             if depth.saturating_add(1) >= st.max_depth {
                 break;
             }
-            // A mirror-like (delta) vertex cannot be connected to: no emitter sampling, and the
-            // path goes on by sampling its BSDF rather than towards hidden geometry.
-            let delta = self.bsdf(&it).is_delta();
+            // A delta (mirror-like) BSDF cannot be connected to: no emitter sampling at an
+            // all-delta vertex, and where some component is delta the path goes on by sampling the
+            // BSDF rather than towards hidden geometry (which would miss that component).
+            let bsdf = self.bsdf(&it);
+            let (all_delta, some_delta) = (bsdf.is_delta(), bsdf.has_delta());
             // ---- Emitter sampling
-            if st.keep(depth + offset) && !delta {
-                let v = Vertex { it, wi, beta, opl };
+            if st.keep(depth + offset) && !all_delta {
+                let v = Vertex {
+                    it,
+                    wi,
+                    beta,
+                    opl,
+                    eta,
+                };
                 self.emitter_sampling(pixel, &v, out);
             }
             // No later vertex can pass filter_bounces: stop early (changes no result).
@@ -273,7 +285,7 @@ impl Tracer for NlosTracer<'_> {
             let mut hidden = self
                 .hidden
                 .as_ref()
-                .filter(|_| !delta && st.hgs_max_depth.is_none_or(|m| depth < m));
+                .filter(|_| !some_delta && st.hgs_max_depth.is_none_or(|m| depth < m));
             if hidden.is_some() && st.hgs_rroulette {
                 // One of the two techniques at random; each is unbiased on its own, so the
                 // mixture is too (mitransient also divides by 1/2 here and doubles the result).
@@ -288,12 +300,14 @@ impl Tracer for NlosTracer<'_> {
             };
             let Some(step) = step else { break };
             beta *= step.weight;
+            eta *= step.eta;
             // ---- Russian roulette (mitransient-model §3.3 step 4)
-            if !russian_roulette(&mut beta, depth, st.rr_depth, rng) {
+            if !russian_roulette(&mut beta, eta, depth, st.rr_depth, rng) {
                 break;
             }
             wi = (it.p - step.next.p).normalize();
-            opl += step.dist as f64;
+            // Light is slower by η inside a refracting medium.
+            opl += (step.dist * eta) as f64;
             it = step.next;
             depth += 1;
         }

@@ -109,7 +109,7 @@ impl<'a> PathTracer<'a> {
         rng: &mut Sampler,
         out: &mut impl FnMut(Splat),
     ) {
-        let (x, wi, beta, opl) = (&path.it, path.wi, path.beta, path.opl);
+        let (x, wi, beta, opl, eta) = (&path.it, path.wi, path.beta, path.opl, path.eta);
         let n = self.emitters.len();
         let k = ((rng.next_1d() * n as f32) as usize).min(n - 1);
         let (target, le_over_pdf, mis_w) = match &self.emitters[k] {
@@ -140,7 +140,7 @@ impl<'a> PathTracer<'a> {
         }
         out(Splat {
             slot: 0,
-            opl: opl + dist as f64,
+            opl: opl + (dist * eta) as f64,
             value: beta * f * le_over_pdf * mis_w,
         });
     }
@@ -154,6 +154,8 @@ impl Tracer for PathTracer<'_> {
         let mut ray = self.camera.pixel_ray(pixel, width, height, rng.next_2d());
         let mut beta = Spectrum::ONE;
         let mut opl = 0.0f64;
+        // Index of refraction of the medium the path is in: light is slower by it.
+        let mut eta = 1.0f32;
         // The previous vertex and its BSDF sampling density (`None` after a delta reflection,
         // which no light sample can find), for MIS on emission hits.
         let mut prev: Option<(Vec3A, Option<f32>)> = None;
@@ -165,7 +167,7 @@ impl Tracer for PathTracer<'_> {
             opl += match depth {
                 0 if st.camera_unwarp => 0.0,
                 0 if st.opl_from_near_clip => seg - ray.tmin as f64,
-                _ => seg,
+                _ => seg * eta as f64,
             };
             let wi = -ray.d;
             // ---- Emission found by the camera ray or by BSDF sampling
@@ -192,14 +194,22 @@ impl Tracer for PathTracer<'_> {
             let bsdf = &self.bsdfs[it.shape as usize];
             // ---- Emitter sampling (not at a delta vertex: nothing to connect to)
             if !bsdf.is_delta() {
-                self.sample_light(&Vertex { it, wi, beta, opl }, bsdf, rng, out);
+                let v = Vertex {
+                    it,
+                    wi,
+                    beta,
+                    opl,
+                    eta,
+                };
+                self.sample_light(&v, bsdf, rng, out);
             }
             // ---- BSDF sampling
             let Some(s) = bsdf.sample(it.ns, wi, rng) else {
                 break;
             };
             beta *= s.weight;
-            if !russian_roulette(&mut beta, depth, st.rr_depth, rng) {
+            eta *= s.eta;
+            if !russian_roulette(&mut beta, eta, depth, st.rr_depth, rng) {
                 break;
             }
             prev = Some((it.p, (!s.delta).then_some(s.pdf)));
