@@ -67,6 +67,22 @@ pub fn render(scene: &Scene, opts: &RenderOptions, monitor: &Monitor) -> Result<
     if let Some(k) = opts.kernel {
         film.kernel = k;
     }
+    if film.phasor.is_some() {
+        if !opts.mono {
+            return Err(NlosError::prop(
+                "phasor_hdr_film",
+                "variant",
+                "phasor films render mono only (as mitransient)",
+            ));
+        }
+        if film.kernel != TemporalKernel::Box {
+            return Err(NlosError::prop(
+                "phasor_hdr_film",
+                "kernel_sigma",
+                "a phasor film is exact in time: it takes no temporal kernel",
+            ));
+        }
+    }
     match &scene.setup {
         Setup::Nlos(_) => run(
             &NlosTracer::new(scene, opts.mono)?,
@@ -99,8 +115,8 @@ fn run(
     let seed = scene.meter.seed.wrapping_add(opts.seed);
     let splatter = film.splatter();
     let c = if opts.mono { 1 } else { 3 };
-    let (t, slots) = (film.temporal_bins, film.laser_slots());
-    let pixel_len = slots * t * c;
+    let (t, slots, slot_len) = (film.temporal_bins, film.laser_slots(), film.slot_len(c));
+    let pixel_len = slots * slot_len;
     let npix = film.width * film.height;
     let mut transient = vec![0.0f32; npix * pixel_len];
     let mut steady = vec![0.0f32; npix * c];
@@ -117,12 +133,15 @@ fn run(
                     for (k, acc) in sum.iter_mut().enumerate().take(c) {
                         *acc += s.value[k] as f64;
                     }
-                    splatter.splat(s.opl, |bin, w| {
-                        let at = (s.slot * t + bin) * c;
-                        for k in 0..c {
-                            buf[at + k] += s.value[k] * w;
-                        }
-                    });
+                    let slot = &mut buf[s.slot * slot_len..(s.slot + 1) * slot_len];
+                    match &film.phasor {
+                        Some(ph) => ph.put(s.opl - film.start_opl, s.value[0], slot),
+                        None => splatter.splat(s.opl, |bin, w| {
+                            for k in 0..c {
+                                slot[bin * c + k] += s.value[k] * w;
+                            }
+                        }),
+                    }
                 };
                 let mut start = 0;
                 while start < spp {
@@ -156,9 +175,14 @@ fn run(
         None => work()?,
     }
     let (h, w) = (film.height, film.width);
+    // Per pixel and laser slot: (T, C), or for a phasor film (frequencies, [re, im]).
+    let tail = match &film.phasor {
+        Some(ph) => [ph.frequencies.len(), 2],
+        None => [t, c],
+    };
     let transient_shape = match film.laser_scan {
-        Some((lw, lh)) => vec![h, w, lh, lw, t, c],
-        None => vec![h, w, t, c],
+        Some((lw, lh)) => vec![h, w, lh, lw, tail[0], tail[1]],
+        None => vec![h, w, tail[0], tail[1]],
     };
     Ok(Rendered {
         steady,

@@ -13,6 +13,7 @@ fn film(kernel: TemporalKernel) -> Film {
         start_opl: 1.0,
         laser_scan: None,
         kernel,
+        phasor: None,
     }
 }
 
@@ -109,4 +110,27 @@ fn kernel_parameters_are_validated() {
         TemporalKernel::from_params("f", None, None).unwrap(),
         TemporalKernel::Box
     );
+}
+
+#[test]
+fn phasor_frequencies_follow_the_fft_grid_and_put_is_the_fourier_term() {
+    use nlos_rs::film::Phasor;
+    use nlos_rs::props::{Props, Value};
+    let mut p = Props::new("phasor_hdr_film", None);
+    p.insert("wl_mean", Value::Float(0.1)).unwrap();
+    p.insert("wl_sigma", Value::Float(0.1)).unwrap();
+    // 300 bins of 6 mm: FFT spacing 1/1.8 m⁻¹; mean index 18, ±3σ = ±9 → indices 9..=27.
+    let ph = Phasor::from_props(&p, 300, 0.006).unwrap();
+    assert_eq!(ph.frequencies.len(), 19);
+    assert!(
+        (ph.frequencies[0] - 9.0 / 1.8).abs() < 1e-5
+            && (ph.frequencies[18] - 27.0 / 1.8).abs() < 1e-5
+    );
+    let mut out = vec![0.0f32; 38];
+    ph.put(0.37, 2.0, &mut out);
+    for (k, f) in ph.frequencies.iter().enumerate() {
+        let phase = -2.0 * std::f64::consts::PI * f * 0.37;
+        assert!((out[2 * k] as f64 - 2.0 * phase.cos()).abs() < 1e-5);
+        assert!((out[2 * k + 1] as f64 - 2.0 * phase.sin()).abs() < 1e-5);
+    }
 }

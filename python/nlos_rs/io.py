@@ -31,6 +31,10 @@ def capture_fields(scene: Scene, transient: np.ndarray, zero_t_start: bool = Fal
     """The ``NLOSCaptureData`` fields of a render (channels summed, as ``tal render`` does)."""
     from . import __version__
 
+    if scene.phasor_frequencies is not None:
+        raise ValueError("a phasor_hdr_film capture has no time bins: write_capture/to_tal take "
+                         "transient_hdr_film captures (save the phasors with numpy)")
+
     w, h = scene.film_size
     bins, delta_t, t_start = scene.temporal
     exhaustive = scene.capture_type == "exhaustive"

@@ -1,9 +1,12 @@
 //! `transient_hdr_film`: the sensor grid and the optical-path-length (OPL) time axis
 //! (mitransient-model §1, §3.8). How a contribution is spread over the time bins — the box of
-//! mitransient or a temporal kernel density estimate — is in [`temporal_kernel`].
+//! mitransient or a temporal kernel density estimate — is in [`temporal_kernel`]; the
+//! frequency-domain `phasor_hdr_film` in [`phasor`].
 
+pub mod phasor;
 pub mod temporal_kernel;
 
+pub use phasor::Phasor;
 pub use temporal_kernel::{GAUSSIAN_CUTOFF_SIGMAS, Splatter, TemporalKernel};
 
 use crate::error::{NlosError, Result};
@@ -26,21 +29,28 @@ pub struct Film {
     pub laser_scan: Option<(usize, usize)>,
     /// Temporal density estimation kernel (`kernel_sigma` / `kernel_bandwidth`).
     pub kernel: TemporalKernel,
+    /// A `phasor_hdr_film`: the frequencies it stores instead of time bins.
+    pub phasor: Option<Phasor>,
 }
 
 impl Film {
-    /// Read a `transient_hdr_film`.
-    pub fn from_props(p: &Props) -> Result<Self> {
-        if p.plugin != "transient_hdr_film" {
-            return Err(NlosError::prop(
-                "nlos_capture_meter",
-                "film",
-                format!("must be a 'transient_hdr_film', got '{}'", p.plugin),
-            ));
-        }
+    /// Read a `transient_hdr_film` or a `phasor_hdr_film`; `sensor` names the sensor it is in.
+    pub fn from_props(p: &Props, sensor: &str) -> Result<Self> {
+        let phasor = match p.plugin.as_str() {
+            "transient_hdr_film" => false,
+            "phasor_hdr_film" => true,
+            other => {
+                return Err(NlosError::prop(
+                    sensor,
+                    "film",
+                    format!("must be a 'transient_hdr_film' or 'phasor_hdr_film', got '{other}'"),
+                ));
+            }
+        };
         let width = p.int_in("width", 768, 1, 1 << 16)? as usize;
         let height = p.int_in("height", 576, 1, 1 << 16)? as usize;
-        let temporal_bins = p.int_in("temporal_bins", 2048, 1, 1 << 24)? as usize;
+        let default_bins = if phasor { 4096 } else { 2048 };
+        let temporal_bins = p.int_in("temporal_bins", default_bins, 1, 1 << 24)? as usize;
         let bin_width_opl = p.float("bin_width_opl", 0.003)?;
         if !(bin_width_opl > 0.0) {
             return Err(NlosError::prop(
@@ -62,6 +72,11 @@ impl Film {
         };
         let kernel =
             TemporalKernel::from_params(&p.plugin, opt("kernel_sigma")?, opt("kernel_bandwidth")?)?;
+        let phasor = if phasor {
+            Some(Phasor::from_props(p, temporal_bins, bin_width_opl)?)
+        } else {
+            None
+        };
         let laser_scan = if exhaustive {
             if lw == 0 || lh == 0 {
                 return Err(NlosError::prop(
@@ -123,12 +138,22 @@ impl Film {
             start_opl,
             laser_scan,
             kernel,
+            phasor,
         })
     }
 
     /// Number of laser slots per pixel (1 unless exhaustive).
     pub fn laser_slots(&self) -> usize {
         self.laser_scan.map_or(1, |(w, h)| w * h)
+    }
+
+    /// Values per pixel and laser slot for `channels` channels: T bins × channels, or, for a
+    /// phasor film, frequencies × [re, im].
+    pub fn slot_len(&self, channels: usize) -> usize {
+        match &self.phasor {
+            Some(ph) => ph.frequencies.len() * 2,
+            None => self.temporal_bins * channels,
+        }
     }
 
     /// The splatter of this film's bins and kernel, for one render.

@@ -243,6 +243,16 @@ impl PyScene {
         let f = &self.get().meter.film;
         (f.temporal_bins, f.bin_width_opl, f.start_opl)
     }
+    /// The frequencies (1/m of optical path) a phasor_hdr_film stores, else None.
+    #[getter]
+    fn phasor_frequencies(&self) -> Option<Vec<f64>> {
+        self.get()
+            .meter
+            .film
+            .phasor
+            .as_ref()
+            .map(|p| p.frequencies.clone())
+    }
     /// Capture type: 'single', 'confocal' or 'exhaustive'.
     #[getter]
     fn capture_type(&self) -> &'static str {

@@ -56,7 +56,7 @@ impl Meter {
                     ));
                 }
                 Value::Object(f) if f.plugin.ends_with("film") => {
-                    film = Some(Film::from_props(&f)?)
+                    film = Some(Film::from_props(&f, plugin)?)
                 }
                 _ => {
                     return Err(NlosError::prop(
