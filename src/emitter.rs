@@ -114,12 +114,15 @@ impl Projector {
 /// A light of a line-of-sight scene.
 #[derive(Clone, Debug)]
 pub enum Light {
-    /// Mitsuba's `area`: uniform, one-sided radiance on the front of a shape.
+    /// Mitsuba's `area` (uniform, one-sided radiance on the front of a shape), or mitransient's
+    /// `angulararea` (the same radiance times an angular falloff).
     Area {
         /// Index of the emitting shape.
         shape: usize,
         /// Radiance.
         radiance: Colour,
+        /// `angulararea`'s falloff with the angle from the surface normal.
+        falloff: Option<AngularFalloff>,
     },
     /// Mitsuba's `point`: isotropic intensity (W/sr) at a position.
     Point {
@@ -148,10 +151,71 @@ impl Light {
         })
     }
 
-    /// Read an `area` emitter nested in shape `shape`.
+    /// Read an `area` or `angulararea` emitter nested in shape `shape`.
     pub fn area_from_props(p: &Props, shape: usize) -> Result<Self> {
         let radiance = p.emission("radiance", Colour::Uniform(1.0))?;
+        let falloff = if p.plugin == "angulararea" {
+            Some(AngularFalloff::from_props(p)?)
+        } else {
+            None
+        };
         p.finish()?;
-        Ok(Light::Area { shape, radiance })
+        Ok(Light::Area {
+            shape,
+            radiance,
+            falloff,
+        })
+    }
+}
+
+/// mitransient's `angulararea` profile: full radiance within `beam_width` of the surface normal,
+/// falling linearly in angle to zero at `cutoff_angle` (degrees; defaults 10 and `cutoff_angle`).
+/// nlos_rs emits exactly this radiance whichever way a path finds the light; mitransient's
+/// light sampling weights it by an extra 1/distance² (docs/compatibility.md).
+#[derive(Clone, Copy, Debug)]
+pub struct AngularFalloff {
+    cutoff: f32,
+    cos_cutoff: f32,
+    cos_beam: f32,
+    inv_transition: f32,
+}
+
+impl AngularFalloff {
+    fn from_props(p: &Props) -> Result<Self> {
+        let cutoff = p.float("cutoff_angle", 10.0)?;
+        let beam = p.float("beam_width", cutoff)?;
+        if !(cutoff > 0.0 && cutoff <= 90.0) {
+            return Err(NlosError::prop(
+                "angulararea",
+                "cutoff_angle",
+                format!("must be in (0, 90] degrees, got {cutoff}"),
+            ));
+        }
+        if !(beam > 0.0 && beam <= cutoff) {
+            return Err(NlosError::prop(
+                "angulararea",
+                "beam_width",
+                format!("must be in (0, cutoff_angle] degrees, got {beam}"),
+            ));
+        }
+        let (c, b) = (cutoff.to_radians() as f32, beam.to_radians() as f32);
+        Ok(Self {
+            cutoff: c,
+            cos_cutoff: c.cos(),
+            cos_beam: b.cos(),
+            inv_transition: if c > b { 1.0 / (c - b) } else { f32::INFINITY },
+        })
+    }
+
+    /// The factor on the radiance leaving at `cos_theta` from the normal.
+    #[inline]
+    pub fn eval(&self, cos_theta: f32) -> f32 {
+        if cos_theta <= self.cos_cutoff {
+            0.0
+        } else if cos_theta >= self.cos_beam {
+            1.0
+        } else {
+            (self.cutoff - cos_theta.clamp(-1.0, 1.0).acos()) * self.inv_transition
+        }
     }
 }

@@ -6,7 +6,7 @@
 
 use super::{Splat, Tracer, Vertex, russian_roulette};
 use crate::bsdf::Bsdf;
-use crate::emitter::Light;
+use crate::emitter::{AngularFalloff, Light};
 use crate::error::{NlosError, Result};
 use crate::geometry::Ray;
 use crate::math::Spectrum;
@@ -15,6 +15,22 @@ use crate::scene::{AreaSampler, Los, Scene};
 use crate::sensor::Camera;
 use crate::settings::PathSettings;
 use glam::Vec3A;
+
+/// Radiance an area light sends at `cos_theta` from its normal (`None` where its falloff is zero).
+#[inline]
+fn emitted(
+    radiance: Spectrum,
+    falloff: Option<AngularFalloff>,
+    cos_theta: f32,
+) -> Option<Spectrum> {
+    match falloff {
+        None => Some(radiance),
+        Some(f) => {
+            let k = f.eval(cos_theta);
+            (k > 0.0).then(|| radiance * k)
+        }
+    }
+}
 
 /// Power heuristic with exponent 2 (Mitsuba's `mis_weight`).
 #[inline]
@@ -27,6 +43,7 @@ enum Emitter {
     Area {
         sampler: AreaSampler,
         radiance: Spectrum,
+        falloff: Option<AngularFalloff>,
     },
     Point {
         position: Vec3A,
@@ -56,7 +73,11 @@ impl<'a> PathTracer<'a> {
         let mut emitters = Vec::with_capacity(los.lights.len());
         for light in &los.lights {
             emitters.push(match *light {
-                Light::Area { shape, radiance } => {
+                Light::Area {
+                    shape,
+                    radiance,
+                    falloff,
+                } => {
                     shape_emitter[shape] = Some(emitters.len());
                     let sampler = AreaSampler::new(scene, |s| s == shape).ok_or_else(|| {
                         NlosError::prop("area", "radiance", "the emitting shape has no area")
@@ -64,6 +85,7 @@ impl<'a> PathTracer<'a> {
                     Emitter::Area {
                         sampler,
                         radiance: radiance.spectrum(mono),
+                        falloff,
                     }
                 }
                 Light::Point {
@@ -120,14 +142,21 @@ impl<'a> PathTracer<'a> {
                 let r2 = (*position - x.p).length_squared();
                 (*position, *intensity * (n as f32 / r2), 1.0)
             }
-            Emitter::Area { sampler, radiance } => {
+            Emitter::Area {
+                sampler,
+                radiance,
+                falloff,
+            } => {
                 let y = sampler.sample(self.scene, rng.next_1d(), rng.next_2d());
                 let w = (x.p - y.p).normalize();
                 if y.ns.dot(w) <= 0.0 {
                     return; // the back of a one-sided area light
                 }
+                let Some(le) = emitted(*radiance, *falloff, y.ns.dot(w)) else {
+                    return;
+                };
                 let pdf = self.light_pdf(sampler, x.p, y.p, y.ng);
-                (y.p, *radiance / pdf, mis(pdf, bsdf.pdf(x.ns, wi, -w)))
+                (y.p, le / pdf, mis(pdf, bsdf.pdf(x.ns, wi, -w)))
             }
         };
         let v = target - x.p;
@@ -172,9 +201,14 @@ impl Tracer for PathTracer<'_> {
             let wi = -ray.d;
             // ---- Emission found by the camera ray or by BSDF sampling
             if let Some(k) = self.shape_emitter[it.shape as usize]
-                && let Emitter::Area { sampler, radiance } = &self.emitters[k]
+                && let Emitter::Area {
+                    sampler,
+                    radiance,
+                    falloff,
+                } = &self.emitters[k]
                 && it.ns.dot(wi) > 0.0
                 && !(depth == 0 && st.discard_direct_light)
+                && let Some(le) = emitted(*radiance, *falloff, it.ns.dot(wi))
             {
                 let w = match prev {
                     Some((px, Some(bsdf_pdf))) => {
@@ -185,7 +219,7 @@ impl Tracer for PathTracer<'_> {
                 out(Splat {
                     slot: 0,
                     opl,
-                    value: beta * *radiance * w,
+                    value: beta * le * w,
                 });
             }
             if depth.saturating_add(1) >= st.max_depth {

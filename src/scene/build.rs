@@ -34,8 +34,7 @@ const OTHER_BSDFS: [&str; 10] = [
 ];
 
 /// Emitter plugins other than the ones read (`projector`, `area`, `point`).
-const OTHER_EMITTERS: [&str; 6] = [
-    "angulararea",
+const OTHER_EMITTERS: [&str; 5] = [
     "spot",
     "constant",
     "envmap",
@@ -211,7 +210,7 @@ impl Parts {
                     }
                     self.meter = Some((shape_idx, Meter::from_capture_meter(&c)?));
                 }
-                Value::Object(c) if c.plugin == "area" => {
+                Value::Object(c) if c.plugin == "area" || c.plugin == "angulararea" => {
                     self.lights.push(Light::area_from_props(&c, shape_idx)?)
                 }
                 Value::Object(c)
@@ -314,7 +313,7 @@ impl Parts {
                     "the nlos_capture_meter must be nested inside the relay-wall shape",
                 ));
             }
-            s if OTHER_EMITTERS.contains(&s) || s == "area" => {
+            s if OTHER_EMITTERS.contains(&s) || s == "area" || s == "angulararea" => {
                 return unsupported(
                     "emitter",
                     "projector for NLOS; area lights nested in shapes and point lights for transient_path",
