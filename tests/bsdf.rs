@@ -258,3 +258,85 @@ fn dielectric_refracts_by_snell_and_chooses_by_fresnel() {
         assert!(s.eta == 1.0 && ((s.wo + wi).length() < 1e-6 || (s.wo.z - 0.8).abs() < 1e-6));
     }
 }
+
+#[test]
+fn roughplastic_samples_its_pdf() {
+    use nlos_rs::bsdf::microfacet::{Distribution, Microfacet};
+    use nlos_rs::bsdf::{Bsdf, RoughPlastic};
+    use nlos_rs::props::{Colour, Props, Value};
+    for (dist, alpha) in [("ggx", 0.2), ("beckmann", 0.5)] {
+        let mut p = Props::new("roughplastic", None);
+        p.insert("distribution", Value::Str(dist.into())).unwrap();
+        p.insert("alpha", Value::Float(alpha)).unwrap();
+        p.insert("diffuse_reflectance", Value::Rgb([0.6, 0.3, 0.1]))
+            .unwrap();
+        let b: Bsdf<Colour> = Bsdf::from_props(&p).unwrap();
+        let Bsdf::RoughPlastic(rp) = &b else {
+            panic!("roughplastic")
+        };
+        // The coating lets most light through at normal incidence and little at grazing.
+        let RoughPlastic {
+            transmittance: t,
+            microfacet: Microfacet { kind, .. },
+            ..
+        } = rp;
+        assert_eq!(
+            *kind,
+            if dist == "ggx" {
+                Distribution::Ggx
+            } else {
+                Distribution::Beckmann
+            }
+        );
+        assert!(
+            t[63] > 0.9 && t[63] < 0.97 && t[1] < t[63],
+            "{:?}",
+            (t[1], t[63])
+        );
+        assert!(rp.internal_reflectance > 0.3 && rp.internal_reflectance < 0.8);
+        let bsdf = b.resolve(false);
+        let n = Vec3A::new(0.2, 0.1, 0.95).normalize();
+        check_bsdf(
+            &format!("roughplastic {dist}"),
+            &bsdf,
+            n,
+            Vec3A::new(-0.4, 0.3, 0.7).normalize(),
+        );
+    }
+}
+
+#[test]
+fn blendbsdf_samples_its_mixture_pdf_and_mask_lets_the_rest_through() {
+    use nlos_rs::bsdf::Blend;
+    use nlos_rs::bsdf::microfacet::Distribution::Ggx;
+    let blend = Bsdf::Blend(Blend {
+        weight: 0.3,
+        first: Some(Box::new(diffuse(0.8))),
+        second: Box::new(rough(Ggx, 0.2)),
+    });
+    let n = Vec3A::new(-0.3, 0.2, 0.9).normalize();
+    let wi = Vec3A::new(0.4, 0.4, 0.6).normalize();
+    check_bsdf("blendbsdf", &blend, n, wi);
+    // f = 0.7 f_diffuse + 0.3 f_rough.
+    let wo = Vec3A::new(-0.2, -0.1, 0.95).normalize();
+    let mix = blend.eval(n, wi, wo).unwrap();
+    let parts = diffuse(0.8).eval(n, wi, wo).unwrap() * 0.7
+        + rough(Ggx, 0.2).eval(n, wi, wo).unwrap() * 0.3;
+    assert!((mix - parts).abs().max_element() < 1e-6);
+    let mask = Bsdf::Blend(Blend {
+        weight: 0.25,
+        first: None,
+        second: Box::new(diffuse(0.8)),
+    });
+    assert!(mask.has_delta() && !mask.is_delta());
+    let mut rng = Sampler::new(4, 4, 4);
+    let through = (0..100_000)
+        .filter(|_| {
+            let s = mask.sample(n, wi, &mut rng).unwrap();
+            s.delta && (s.wo + wi).length() < 1e-6 && s.weight == Spectrum::ONE
+        })
+        .count() as f32
+        / 100_000.0;
+    assert!((through - 0.75).abs() < 0.006, "{through}");
+    check_bsdf("mask", &mask, n, wi);
+}

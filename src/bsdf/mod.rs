@@ -6,6 +6,7 @@
 //! where it comes from; `eval` includes the cosine at `wo`; directions and the shading normal `ns`
 //! are in world space.
 
+pub mod blendbsdf;
 pub mod conductor;
 pub mod dielectric;
 pub mod diffuse;
@@ -14,14 +15,17 @@ pub mod ior;
 pub mod microfacet;
 pub mod plastic;
 pub mod roughconductor;
+pub mod roughplastic;
 pub mod thindielectric;
 pub mod twosided;
 
+pub use blendbsdf::Blend;
 pub use conductor::Conductor;
 pub use dielectric::Dielectric;
 pub use diffuse::Diffuse;
 pub use plastic::Plastic;
 pub use roughconductor::RoughConductor;
+pub use roughplastic::RoughPlastic;
 pub use thindielectric::ThinDielectric;
 pub use twosided::TwoSided;
 
@@ -48,10 +52,17 @@ pub enum Bsdf<S> {
     ThinDielectric(ThinDielectric<S>),
     /// `plastic`: a diffuse base under a smooth coating.
     Plastic(Plastic<S>),
+    /// `roughplastic`: a diffuse base under a rough coating.
+    RoughPlastic(RoughPlastic<S>),
+    /// `blendbsdf` and `mask`: a mixture of two BSDFs (or of one and a pass-through).
+    Blend(Blend<S>),
 }
 
 /// The plugin names [`Bsdf::from_props`] reads.
-pub const PLUGINS: [&str; 7] = [
+pub const PLUGINS: [&str; 10] = [
+    "blendbsdf",
+    "mask",
+    "roughplastic",
     "diffuse",
     "twosided",
     "conductor",
@@ -93,6 +104,8 @@ impl Bsdf<Colour> {
             "dielectric" => Ok(Bsdf::Dielectric(Dielectric::from_props(p)?)),
             "thindielectric" => Ok(Bsdf::ThinDielectric(ThinDielectric::from_props(p)?)),
             "plastic" => Ok(Bsdf::Plastic(Plastic::from_props(p)?)),
+            "roughplastic" => Ok(Bsdf::RoughPlastic(RoughPlastic::from_props(p)?)),
+            "blendbsdf" | "mask" => Ok(Bsdf::Blend(Blend::from_props(p)?)),
             other => Err(NlosError::prop(
                 other,
                 "type",
@@ -138,6 +151,20 @@ impl Bsdf<Colour> {
                 eta: p.eta,
                 nonlinear: p.nonlinear,
             }),
+            Bsdf::RoughPlastic(p) => Bsdf::RoughPlastic(RoughPlastic {
+                diffuse_reflectance: p.diffuse_reflectance.spectrum(mono),
+                specular_reflectance: p.specular_reflectance.spectrum(mono),
+                eta: p.eta,
+                nonlinear: p.nonlinear,
+                microfacet: p.microfacet,
+                transmittance: p.transmittance.clone(),
+                internal_reflectance: p.internal_reflectance,
+            }),
+            Bsdf::Blend(b) => Bsdf::Blend(Blend {
+                weight: b.weight,
+                first: b.first.as_ref().map(|f| Box::new(f.resolve(mono))),
+                second: Box::new(b.second.resolve(mono)),
+            }),
         }
     }
 }
@@ -152,6 +179,8 @@ impl Bsdf<Spectrum> {
             Bsdf::Conductor(_) | Bsdf::Dielectric(_) | Bsdf::ThinDielectric(_) => None,
             Bsdf::RoughConductor(c) => c.eval(ns, wi, wo),
             Bsdf::Plastic(p) => p.eval(ns, wi, wo),
+            Bsdf::RoughPlastic(p) => p.eval(ns, wi, wo),
+            Bsdf::Blend(b) => b.eval(ns, wi, wo),
         }
     }
 
@@ -166,6 +195,8 @@ impl Bsdf<Spectrum> {
             Bsdf::Dielectric(d) => d.sample(ns, wi, rng),
             Bsdf::ThinDielectric(d) => d.sample(ns, wi, rng),
             Bsdf::Plastic(p) => p.sample(ns, wi, rng),
+            Bsdf::RoughPlastic(p) => p.sample(ns, wi, rng),
+            Bsdf::Blend(b) => b.sample(ns, wi, rng),
         }
     }
 
@@ -178,6 +209,8 @@ impl Bsdf<Spectrum> {
             Bsdf::Conductor(_) | Bsdf::Dielectric(_) | Bsdf::ThinDielectric(_) => 0.0,
             Bsdf::RoughConductor(c) => c.pdf(ns, wi, wo),
             Bsdf::Plastic(p) => p.pdf(ns, wi, wo),
+            Bsdf::RoughPlastic(p) => p.pdf(ns, wi, wo),
+            Bsdf::Blend(b) => b.pdf(ns, wi, wo),
         }
     }
 
@@ -185,9 +218,13 @@ impl Bsdf<Spectrum> {
     #[inline]
     pub fn is_delta(&self) -> bool {
         match self {
-            Bsdf::Diffuse(_) | Bsdf::RoughConductor(_) | Bsdf::Plastic(_) => false,
+            Bsdf::Diffuse(_)
+            | Bsdf::RoughConductor(_)
+            | Bsdf::Plastic(_)
+            | Bsdf::RoughPlastic(_) => false,
             Bsdf::Conductor(_) | Bsdf::Dielectric(_) | Bsdf::ThinDielectric(_) => true,
             Bsdf::TwoSided(t) => t.front.is_delta() && t.back.is_delta(),
+            Bsdf::Blend(b) => b.is_delta(),
         }
     }
 
@@ -196,10 +233,11 @@ impl Bsdf<Spectrum> {
     #[inline]
     pub fn has_delta(&self) -> bool {
         match self {
-            Bsdf::Diffuse(_) | Bsdf::RoughConductor(_) => false,
+            Bsdf::Diffuse(_) | Bsdf::RoughConductor(_) | Bsdf::RoughPlastic(_) => false,
             Bsdf::Conductor(_) | Bsdf::Dielectric(_) | Bsdf::ThinDielectric(_) => true,
             Bsdf::Plastic(_) => true,
             Bsdf::TwoSided(t) => t.front.has_delta() || t.back.has_delta(),
+            Bsdf::Blend(b) => b.has_delta(),
         }
     }
 

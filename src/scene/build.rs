@@ -20,11 +20,8 @@ use std::path::Path;
 const SHAPES: [&str; 6] = ["obj", "ply", "rectangle", "disk", "cube", "sphere"];
 
 /// Mitsuba's BSDF plugins that nlos_rs does not read yet (an error names them as BSDFs).
-const OTHER_BSDFS: [&str; 10] = [
+const OTHER_BSDFS: [&str; 7] = [
     "roughdielectric",
-    "roughplastic",
-    "blendbsdf",
-    "mask",
     "bumpmap",
     "normalmap",
     "principled",

@@ -34,12 +34,20 @@ BSDFS = {
     "plastic": {"type": "plastic", "diffuse_reflectance": {"type": "rgb", "value": [0.6, 0.3, 0.1]}},
     "plastic_nonlinear": {"type": "plastic", "nonlinear": True, "int_ior": "pet",
                           "diffuse_reflectance": {"type": "rgb", "value": [0.2, 0.5, 0.8]}},
+    "roughplastic_ggx": {"type": "roughplastic", "distribution": "ggx", "alpha": 0.2,
+                         "diffuse_reflectance": {"type": "rgb", "value": [0.6, 0.3, 0.1]}},
+    "roughplastic_beckmann_nonlinear": {"type": "roughplastic", "alpha": 0.5, "nonlinear": True,
+                                        "diffuse_reflectance": {"type": "rgb", "value": [0.2, 0.5, 0.8]}},
+    "blendbsdf_diffuse_roughconductor": {"type": "blendbsdf", "weight": 0.3,
+                                         "a": {"type": "diffuse", "reflectance": 0.8},
+                                         "b": {"type": "roughconductor", "material": "Al", "alpha": 0.2}},
+    "mask_diffuse": {"type": "mask", "opacity": 0.6, "bsdf": {"type": "diffuse", "reflectance": 0.7}},
 }
 # NLOS: (BSDF, hidden-geometry sampling). mitransient's hidden-geometry sampling evaluates only a
 # BSDF's smooth part, so it drops the coating reflection of plastic: compare that with BSDF
 # sampling, where mitransient is right (nlos_rs samples the BSDF at such vertices either way).
 NLOS = [("roughconductor_cu_beckmann", True), ("roughconductor_ggx_eta_k", True), ("twosided_diffuse", True),
-        ("plastic", False)]
+        ("plastic", False), ("roughplastic_ggx", True), ("blendbsdf_diffuse_roughconductor", True)]
 
 
 def cornell(peer, bsdf, size=16):
