@@ -248,11 +248,11 @@ fn dielectric_refracts_by_snell_and_chooses_by_fresnel() {
         assert!(s.wo.z < 0.0 && s.eta == 1.0);
     }
     // A thin sheet: straight through or mirrored, the optical speed unchanged.
-    let sheet = Bsdf::ThinDielectric(ThinDielectric {
+    let sheet = Bsdf::ThinDielectric(ThinDielectric(Dielectric {
         eta: 1.5,
         specular_reflectance: Spectrum::ONE,
         specular_transmittance: Spectrum::ONE,
-    });
+    }));
     for _ in 0..100 {
         let s = sheet.sample(n, wi, &mut rng).expect("an event");
         assert!(s.eta == 1.0 && ((s.wo + wi).length() < 1e-6 || (s.wo.z - 0.8).abs() < 1e-6));

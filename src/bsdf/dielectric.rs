@@ -28,7 +28,7 @@ pub struct Dielectric<S> {
 }
 
 impl Dielectric<Colour> {
-    /// Read a `dielectric`.
+    /// Read a `dielectric` (or a `thindielectric`, which has the same parameters).
     pub fn from_props(p: &Props) -> Result<Self> {
         let eta = ior::read_ior(p, "int_ior", "bk7")? / ior::read_ior(p, "ext_ior", "air")?;
         let specular_reflectance = p.colour("specular_reflectance", Colour::Uniform(1.0))?;
@@ -39,6 +39,17 @@ impl Dielectric<Colour> {
             specular_reflectance,
             specular_transmittance,
         })
+    }
+}
+
+impl Dielectric<Colour> {
+    /// Resolved for a mono or rgb render.
+    pub fn resolve(&self, mono: bool) -> Dielectric<Spectrum> {
+        Dielectric {
+            eta: self.eta,
+            specular_reflectance: self.specular_reflectance.spectrum(mono),
+            specular_transmittance: self.specular_transmittance.spectrum(mono),
+        }
     }
 }
 

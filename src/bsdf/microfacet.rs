@@ -88,4 +88,19 @@ impl Microfacet {
     pub fn pdf(&self, m: Vec3A) -> f32 {
         self.d(m) * m.z.max(0.0)
     }
+
+    /// `wi` reflected about a normal drawn by [`Microfacet::sample`].
+    pub fn reflect(&self, wi: Vec3A, rng: &mut crate::sampling::Sampler) -> Vec3A {
+        let m = self.sample(rng.next_2d());
+        2.0 * wi.dot(m) * m - wi
+    }
+
+    /// Solid-angle density of [`Microfacet::reflect`]'s directions: pdf(h) / (4 wo·h).
+    pub fn reflection_pdf(&self, wi: Vec3A, wo: Vec3A) -> f32 {
+        if wi.z <= 0.0 || wo.z <= 0.0 {
+            return 0.0;
+        }
+        let h = (wi + wo).normalize();
+        self.pdf(h) / (4.0 * wo.dot(h))
+    }
 }

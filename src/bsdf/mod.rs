@@ -30,7 +30,7 @@ pub use thindielectric::ThinDielectric;
 pub use twosided::TwoSided;
 
 use crate::error::{NlosError, Result};
-use crate::math::Spectrum;
+use crate::math::{Frame, Spectrum};
 use crate::props::{Colour, Props};
 use crate::sampling::Sampler;
 use glam::Vec3A;
@@ -88,6 +88,45 @@ pub struct BsdfSample {
     pub eta: f32,
 }
 
+/// A smooth BSDF defined in its local shading frame (z = shading normal, one-sided), with a
+/// proposal of outgoing directions; the world-space evaluation, density and sampling follow.
+pub(crate) trait LocalBsdf {
+    /// f·cos θ_o for local directions.
+    fn eval_local(&self, wi: Vec3A, wo: Vec3A) -> Option<Spectrum>;
+    /// Density of the directions [`LocalBsdf::propose`] gives.
+    fn pdf_local(&self, wi: Vec3A, wo: Vec3A) -> f32;
+    /// A local outgoing direction for local `wi` (above the surface).
+    fn propose(&self, wi: Vec3A, rng: &mut Sampler) -> Vec3A;
+
+    fn eval_world(&self, ns: Vec3A, wi: Vec3A, wo: Vec3A) -> Option<Spectrum> {
+        let f = Frame::new(ns);
+        self.eval_local(f.to_local(wi), f.to_local(wo))
+    }
+
+    fn pdf_world(&self, ns: Vec3A, wi: Vec3A, wo: Vec3A) -> f32 {
+        let f = Frame::new(ns);
+        self.pdf_local(f.to_local(wi), f.to_local(wo))
+    }
+
+    fn sample_world(&self, ns: Vec3A, wi: Vec3A, rng: &mut Sampler) -> Option<BsdfSample> {
+        let f = Frame::new(ns);
+        let wi_l = f.to_local(wi);
+        if wi_l.z <= 0.0 {
+            return None;
+        }
+        let wo_l = self.propose(wi_l, rng);
+        let value = self.eval_local(wi_l, wo_l)?;
+        let pdf = self.pdf_local(wi_l, wo_l);
+        (pdf > 0.0).then(|| BsdfSample {
+            wo: f.to_world(wo_l),
+            weight: value / pdf,
+            pdf,
+            delta: false,
+            eta: 1.0,
+        })
+    }
+}
+
 impl Bsdf<Colour> {
     /// Mitsuba's default BSDF: diffuse with reflectance 0.5.
     pub const DEFAULT: Self = Bsdf::Diffuse(Diffuse {
@@ -102,7 +141,9 @@ impl Bsdf<Colour> {
             "conductor" => Ok(Bsdf::Conductor(Conductor::from_props(p)?)),
             "roughconductor" => Ok(Bsdf::RoughConductor(RoughConductor::from_props(p)?)),
             "dielectric" => Ok(Bsdf::Dielectric(Dielectric::from_props(p)?)),
-            "thindielectric" => Ok(Bsdf::ThinDielectric(ThinDielectric::from_props(p)?)),
+            "thindielectric" => Ok(Bsdf::ThinDielectric(ThinDielectric(
+                Dielectric::from_props(p)?,
+            ))),
             "plastic" => Ok(Bsdf::Plastic(Plastic::from_props(p)?)),
             "roughplastic" => Ok(Bsdf::RoughPlastic(RoughPlastic::from_props(p)?)),
             "blendbsdf" | "mask" => Ok(Bsdf::Blend(Blend::from_props(p)?)),
@@ -135,16 +176,8 @@ impl Bsdf<Colour> {
                 specular_reflectance: c.specular_reflectance.spectrum(mono),
                 microfacet: c.microfacet,
             }),
-            Bsdf::Dielectric(d) => Bsdf::Dielectric(Dielectric {
-                eta: d.eta,
-                specular_reflectance: d.specular_reflectance.spectrum(mono),
-                specular_transmittance: d.specular_transmittance.spectrum(mono),
-            }),
-            Bsdf::ThinDielectric(d) => Bsdf::ThinDielectric(ThinDielectric {
-                eta: d.eta,
-                specular_reflectance: d.specular_reflectance.spectrum(mono),
-                specular_transmittance: d.specular_transmittance.spectrum(mono),
-            }),
+            Bsdf::Dielectric(d) => Bsdf::Dielectric(d.resolve(mono)),
+            Bsdf::ThinDielectric(d) => Bsdf::ThinDielectric(ThinDielectric(d.0.resolve(mono))),
             Bsdf::Plastic(p) => Bsdf::Plastic(Plastic {
                 diffuse_reflectance: p.diffuse_reflectance.spectrum(mono),
                 specular_reflectance: p.specular_reflectance.spectrum(mono),
@@ -177,9 +210,9 @@ impl Bsdf<Spectrum> {
             Bsdf::Diffuse(d) => d.eval(ns, wi, wo),
             Bsdf::TwoSided(t) => t.eval(ns, wi, wo),
             Bsdf::Conductor(_) | Bsdf::Dielectric(_) | Bsdf::ThinDielectric(_) => None,
-            Bsdf::RoughConductor(c) => c.eval(ns, wi, wo),
+            Bsdf::RoughConductor(c) => c.eval_world(ns, wi, wo),
             Bsdf::Plastic(p) => p.eval(ns, wi, wo),
-            Bsdf::RoughPlastic(p) => p.eval(ns, wi, wo),
+            Bsdf::RoughPlastic(p) => p.eval_world(ns, wi, wo),
             Bsdf::Blend(b) => b.eval(ns, wi, wo),
         }
     }
@@ -191,11 +224,11 @@ impl Bsdf<Spectrum> {
             Bsdf::Diffuse(d) => d.sample(ns, wi, rng),
             Bsdf::TwoSided(t) => t.sample(ns, wi, rng),
             Bsdf::Conductor(c) => c.sample(ns, wi),
-            Bsdf::RoughConductor(c) => c.sample(ns, wi, rng),
+            Bsdf::RoughConductor(c) => c.sample_world(ns, wi, rng),
             Bsdf::Dielectric(d) => d.sample(ns, wi, rng),
             Bsdf::ThinDielectric(d) => d.sample(ns, wi, rng),
             Bsdf::Plastic(p) => p.sample(ns, wi, rng),
-            Bsdf::RoughPlastic(p) => p.sample(ns, wi, rng),
+            Bsdf::RoughPlastic(p) => p.sample_world(ns, wi, rng),
             Bsdf::Blend(b) => b.sample(ns, wi, rng),
         }
     }
@@ -207,9 +240,9 @@ impl Bsdf<Spectrum> {
             Bsdf::Diffuse(d) => d.pdf(ns, wo),
             Bsdf::TwoSided(t) => t.pdf(ns, wi, wo),
             Bsdf::Conductor(_) | Bsdf::Dielectric(_) | Bsdf::ThinDielectric(_) => 0.0,
-            Bsdf::RoughConductor(c) => c.pdf(ns, wi, wo),
+            Bsdf::RoughConductor(c) => c.pdf_world(ns, wi, wo),
             Bsdf::Plastic(p) => p.pdf(ns, wi, wo),
-            Bsdf::RoughPlastic(p) => p.pdf(ns, wi, wo),
+            Bsdf::RoughPlastic(p) => p.pdf_world(ns, wi, wo),
             Bsdf::Blend(b) => b.pdf(ns, wi, wo),
         }
     }

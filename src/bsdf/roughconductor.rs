@@ -12,9 +12,9 @@
 
 use super::conductor::complex_ior;
 use super::microfacet::{Distribution, Microfacet};
-use super::{BsdfSample, fresnel};
+use super::{LocalBsdf, fresnel};
 use crate::error::{NlosError, Result};
-use crate::math::{Frame, Spectrum};
+use crate::math::Spectrum;
 use crate::props::{Colour, Props};
 use crate::sampling::Sampler;
 use glam::Vec3A;
@@ -100,8 +100,7 @@ impl RoughConductor<Colour> {
     }
 }
 
-impl RoughConductor<Spectrum> {
-    /// f·cos θ_o in the local frame.
+impl LocalBsdf for RoughConductor<Spectrum> {
     fn eval_local(&self, wi: Vec3A, wo: Vec3A) -> Option<Spectrum> {
         if wi.z <= 0.0 || wo.z <= 0.0 {
             return None;
@@ -116,47 +115,12 @@ impl RoughConductor<Spectrum> {
         Some(f * self.specular_reflectance * value)
     }
 
-    /// Density of [`RoughConductor::sample`] in the local frame.
     fn pdf_local(&self, wi: Vec3A, wo: Vec3A) -> f32 {
-        if wi.z <= 0.0 || wo.z <= 0.0 {
-            return 0.0;
-        }
-        let h = (wi + wo).normalize();
-        self.microfacet.pdf(h) / (4.0 * wo.dot(h))
-    }
-
-    /// f·cos θ_o.
-    #[inline]
-    pub fn eval(&self, ns: Vec3A, wi: Vec3A, wo: Vec3A) -> Option<Spectrum> {
-        let f = Frame::new(ns);
-        self.eval_local(f.to_local(wi), f.to_local(wo))
+        self.microfacet.reflection_pdf(wi, wo)
     }
 
     /// Reflect `wi` about a microfacet normal drawn ∝ D·cos θ_m.
-    #[inline]
-    pub fn sample(&self, ns: Vec3A, wi: Vec3A, rng: &mut Sampler) -> Option<BsdfSample> {
-        let f = Frame::new(ns);
-        let wi_l = f.to_local(wi);
-        if wi_l.z <= 0.0 {
-            return None;
-        }
-        let m = self.microfacet.sample(rng.next_2d());
-        let wo_l = 2.0 * wi_l.dot(m) * m - wi_l;
-        let value = self.eval_local(wi_l, wo_l)?;
-        let pdf = self.pdf_local(wi_l, wo_l);
-        (pdf > 0.0).then(|| BsdfSample {
-            wo: f.to_world(wo_l),
-            weight: value / pdf,
-            pdf,
-            delta: false,
-            eta: 1.0,
-        })
-    }
-
-    /// Density of [`RoughConductor::sample`].
-    #[inline]
-    pub fn pdf(&self, ns: Vec3A, wi: Vec3A, wo: Vec3A) -> f32 {
-        let f = Frame::new(ns);
-        self.pdf_local(f.to_local(wi), f.to_local(wo))
+    fn propose(&self, wi: Vec3A, rng: &mut Sampler) -> Vec3A {
+        self.microfacet.reflect(wi, rng)
     }
 }

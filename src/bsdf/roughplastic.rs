@@ -17,9 +17,9 @@
 
 use super::microfacet::Microfacet;
 use super::roughconductor::microfacet;
-use super::{BsdfSample, fresnel, ior};
+use super::{LocalBsdf, fresnel, ior};
 use crate::error::{NlosError, Result};
-use crate::math::{Frame, Spectrum};
+use crate::math::Spectrum;
 use crate::props::{Colour, Props};
 use crate::sampling::{Sampler, square_to_cosine_hemisphere};
 use glam::{Vec2, Vec3A};
@@ -176,7 +176,9 @@ impl RoughPlastic<Spectrum> {
         let (ps, pd) = ((1.0 - t_i) * w, t_i * (1.0 - w));
         if ps + pd > 0.0 { ps / (ps + pd) } else { 0.0 }
     }
+}
 
+impl LocalBsdf for RoughPlastic<Spectrum> {
     fn eval_local(&self, wi: Vec3A, wo: Vec3A) -> Option<Spectrum> {
         if wi.z <= 0.0 || wo.z <= 0.0 {
             return None;
@@ -202,47 +204,15 @@ impl RoughPlastic<Spectrum> {
             return 0.0;
         }
         let ps = self.prob_specular(self.t(wi.z));
-        let h = (wi + wo).normalize();
-        ps * self.microfacet.pdf(h) / (4.0 * wo.dot(h)) + (1.0 - ps) * wo.z * FRAC_1_PI
-    }
-
-    /// f·cos θ_o (coating and base).
-    #[inline]
-    pub fn eval(&self, ns: Vec3A, wi: Vec3A, wo: Vec3A) -> Option<Spectrum> {
-        let f = Frame::new(ns);
-        self.eval_local(f.to_local(wi), f.to_local(wo))
+        ps * self.microfacet.reflection_pdf(wi, wo) + (1.0 - ps) * wo.z * FRAC_1_PI
     }
 
     /// The coating's microfacet reflection or the base's cosine-weighted scattering.
-    #[inline]
-    pub fn sample(&self, ns: Vec3A, wi: Vec3A, rng: &mut Sampler) -> Option<BsdfSample> {
-        let f = Frame::new(ns);
-        let wi_l = f.to_local(wi);
-        if wi_l.z <= 0.0 {
-            return None;
-        }
-        let ps = self.prob_specular(self.t(wi_l.z));
-        let wo_l = if rng.next_1d() < ps {
-            let m = self.microfacet.sample(rng.next_2d());
-            2.0 * wi_l.dot(m) * m - wi_l
+    fn propose(&self, wi: Vec3A, rng: &mut Sampler) -> Vec3A {
+        if rng.next_1d() < self.prob_specular(self.t(wi.z)) {
+            self.microfacet.reflect(wi, rng)
         } else {
             square_to_cosine_hemisphere(rng.next_2d())
-        };
-        let value = self.eval_local(wi_l, wo_l)?;
-        let pdf = self.pdf_local(wi_l, wo_l);
-        (pdf > 0.0).then(|| BsdfSample {
-            wo: f.to_world(wo_l),
-            weight: value / pdf,
-            pdf,
-            delta: false,
-            eta: 1.0,
-        })
-    }
-
-    /// Density of [`RoughPlastic::sample`].
-    #[inline]
-    pub fn pdf(&self, ns: Vec3A, wi: Vec3A, wo: Vec3A) -> f32 {
-        let f = Frame::new(ns);
-        self.pdf_local(f.to_local(wi), f.to_local(wo))
+        }
     }
 }

@@ -57,6 +57,20 @@ pub struct Vertex {
     pub eta: f32,
 }
 
+impl Vertex {
+    /// The path state at `it`.
+    #[inline]
+    pub fn new(it: Interaction, wi: Vec3A, beta: Spectrum, opl: f64, eta: f32) -> Self {
+        Self {
+            it,
+            wi,
+            beta,
+            opl,
+            eta,
+        }
+    }
+}
+
 /// A path sampler for one pixel of a film.
 pub trait Tracer: Sync {
     /// Trace one path sample of `pixel` (row-major), passing every contribution to `out`.

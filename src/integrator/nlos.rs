@@ -268,14 +268,7 @@ impl Tracer for NlosTracer<'_> {
             let (all_delta, some_delta) = (bsdf.is_delta(), bsdf.has_delta());
             // ---- Emitter sampling
             if st.keep(depth + offset) && !all_delta {
-                let v = Vertex {
-                    it,
-                    wi,
-                    beta,
-                    opl,
-                    eta,
-                };
-                self.emitter_sampling(pixel, &v, out);
+                self.emitter_sampling(pixel, &Vertex::new(it, wi, beta, opl, eta), out);
             }
             // No later vertex can pass filter_bounces: stop early (changes no result).
             if st.filter_depth.is_some_and(|f| depth + 1 + offset > f) {

@@ -228,14 +228,7 @@ impl Tracer for PathTracer<'_> {
             let bsdf = &self.bsdfs[it.shape as usize];
             // ---- Emitter sampling (not at a delta vertex: nothing to connect to)
             if !bsdf.is_delta() {
-                let v = Vertex {
-                    it,
-                    wi,
-                    beta,
-                    opl,
-                    eta,
-                };
-                self.sample_light(&v, bsdf, rng, out);
+                self.sample_light(&Vertex::new(it, wi, beta, opl, eta), bsdf, rng, out);
             }
             // ---- BSDF sampling
             let Some(s) = bsdf.sample(it.ns, wi, rng) else {
