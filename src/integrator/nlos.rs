@@ -231,8 +231,10 @@ impl<'a> NlosTracer<'a> {
             CaptureType::Single => self.connect_spot(v, &spots[0], 0, out),
             CaptureType::Confocal => self.connect_spot(v, &spots[pixel], 0, out),
             CaptureType::Exhaustive => {
+                // One slot per laser point, or all in one when the film has no laser axis.
+                let per_spot = self.scene.meter.film.laser_scan.is_some();
                 for (slot, spot) in spots.iter().enumerate() {
-                    self.connect_spot(v, spot, slot, out);
+                    self.connect_spot(v, spot, if per_spot { slot } else { 0 }, out);
                 }
             }
         }

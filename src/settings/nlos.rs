@@ -263,10 +263,13 @@ impl NlosSettings {
     pub fn check(&self, film: &Film) -> Result<()> {
         let exhaustive = self.capture_type == CaptureType::Exhaustive;
         match (exhaustive, film.laser_scan) {
+            // Without a laser axis on the film, mitransient sums every laser point into the one
+            // transient (tal 0.21 writes this for its per-laser-point exhaustive scans).
+            (true, None) if self.force_equal_illumination_scanning => Ok(()),
             (true, None) => Err(NlosError::prop(
                 "transient_hdr_film",
                 "exhaustive_scan",
-                "capture_type='exhaustive' needs exhaustive_scan=true with laser_scan_width/height",
+                "capture_type='exhaustive' needs exhaustive_scan=true with laser_scan_width/height (or force_equal_illumination_scanning, to sum the laser points)",
             )),
             (false, Some(_)) => Err(NlosError::prop(
                 "transient_hdr_film",
