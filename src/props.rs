@@ -112,6 +112,63 @@ impl Colour {
     }
 }
 
+/// The (wavelength, value) pairs of a `regular` (evenly spaced between `wavelength_min` and
+/// `wavelength_max`) or `irregular` (`wavelengths`) spectrum plugin with its `values`.
+fn spectrum_plugin_pairs(o: &Props, key: &str) -> Result<Vec<(f64, f64)>> {
+    let list = |k: &str| -> Result<Vec<f64>> {
+        o.string(k, "")?
+            .split(|c: char| c == ',' || c.is_whitespace())
+            .filter(|t| !t.is_empty())
+            .map(|t| {
+                t.parse::<f64>()
+                    .map_err(|_| o.err(k, format!("'{t}' is not a number")))
+            })
+            .collect()
+    };
+    let values = list("values")?;
+    let wavelengths = match o.plugin.as_str() {
+        "regular" => {
+            let (lo, hi) = (
+                o.float("wavelength_min", 0.0)?,
+                o.float("wavelength_max", 0.0)?,
+            );
+            let n = values.len();
+            (0..n)
+                .map(|i| lo + (hi - lo) * i as f64 / (n.max(2) - 1) as f64)
+                .collect()
+        }
+        "irregular" => list("wavelengths")?,
+        other => {
+            return Err(NlosError::prop(
+                other,
+                key,
+                format!(
+                    "spectrum '{other}' is not supported (a number, rgb, wavelength:value pairs, regular or irregular)"
+                ),
+            ));
+        }
+    };
+    o.finish()?;
+    if wavelengths.len() != values.len() || values.len() < 2 {
+        return Err(o.err(
+            "values",
+            "needs two or more values (and as many wavelengths)",
+        ));
+    }
+    let pairs: Vec<(f64, f64)> = wavelengths.into_iter().zip(values).collect();
+    if !pairs.windows(2).all(|w| w[0].0 < w[1].0)
+        || !pairs
+            .iter()
+            .all(|(w, v)| w.is_finite() && v.is_finite() && *v >= 0.0)
+    {
+        return Err(o.err(
+            "values",
+            "wavelengths must increase and values be finite and non-negative",
+        ));
+    }
+    Ok(pairs)
+}
+
 impl Props {
     /// Empty property set for a plugin.
     pub fn new(plugin: impl Into<String>, id: Option<String>) -> Self {
@@ -299,6 +356,10 @@ impl Props {
                 rgb: spectrum::uniform_illuminant_srgb(*v),
                 mono: *v,
             },
+            Some(Value::Object(o)) => Colour::Rgb(spectrum::to_srgb(
+                &spectrum_plugin_pairs(o, key)?,
+                reflectance,
+            )),
             Some(Value::Spectrum(pairs)) => {
                 let ok = pairs.windows(2).all(|w| w[0].0 < w[1].0)
                     && pairs

@@ -254,6 +254,8 @@ impl Reader<'_> {
                         _ => return Err(self.err(child, "<rgb> needs 1 or 3 numbers")),
                     }
                 }
+                // <spectrum type="regular|irregular|..."> is a spectrum plugin with properties.
+                "spectrum" if child.has_attribute("type") => Value::Object(self.object(child)?),
                 "spectrum" => {
                     let v = self.need(child, "value")?;
                     if v.contains(':') {

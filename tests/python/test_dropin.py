@@ -129,6 +129,24 @@ def test_spectra_reduce_as_mitsuba_does(peer, tmp_path, variant, where):
         mi.set_variant("llvm_ad_mono")
 
 
+def test_regular_and_irregular_spectra_are_their_wavelength_value_pairs(tmp_path):
+    """Mitsuba's spectrum plugins (which mitransient cannot render in its RGB and mono variants)
+    read as the same piecewise-linear spectrum as wavelength:value pairs."""
+    forms = {"pairs": '<spectrum name="irradiance" value="400:0.2, 550:0.8, 700:0.5"/>',
+             "regular": '<spectrum name="irradiance" type="regular"><float name="wavelength_min" value="400"/>'
+                        '<float name="wavelength_max" value="700"/><string name="values" value="0.2, 0.8, 0.5"/></spectrum>',
+             "irregular": '<spectrum name="irradiance" type="irregular"><string name="wavelengths" value="400, 550, 700"/>'
+                          '<string name="values" value="0.2, 0.8, 0.5"/></spectrum>'}
+    nlos_rs.save_xml(small(), tmp_path / "base.xml")
+    text = (tmp_path / "base.xml").read_text()
+    out = {}
+    for name, spec in forms.items():
+        (tmp_path / f"{name}.xml").write_text(text.replace('<rgb name="irradiance" value="1.0, 1.0, 1.0"/>', spec))
+        out[name] = render(str(tmp_path / f"{name}.xml"), variant="rgb")[1]
+    assert out["pairs"].sum() > 0
+    assert np.array_equal(out["pairs"], out["regular"]) and np.array_equal(out["pairs"], out["irregular"])
+
+
 def test_bad_spectra_name_the_key(tmp_path):
     for value in ["700:1, 400:1", "400:1", "400:-1, 700:1", "400:x, 700:1"]:
         path = _spectrum_scene_xml(tmp_path / "s.xml", value, "irradiance")

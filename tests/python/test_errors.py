@@ -43,7 +43,7 @@ def sensor(d):
         (lambda d: d["laser"].update(irradiance={"type": "rgb", "value": [1, 2]}), ["rgb", "value"]),
         (lambda d: d["laser"].update(to_world=[[1, 0], [0, 1]]), ["projector", "to_world"]),
         (lambda d: d["laser"].update(to_world=np.zeros((4, 4))), ["to_world", "invertible"]),
-        (lambda d: d["z"].update(bsdf={"type": "conductor"}), ["conductor"]),
+        (lambda d: d["z"].update(bsdf={"type": "roughdielectric"}), ["roughdielectric"]),
         (lambda d: d["z"].update(bsdf={"type": "ref", "id": "nope"}), ["nope"]),
         (lambda d: d["z"].update(filename=""), ["obj", "filename"]),
         (lambda d: d.update(extra={"type": "nlos_capture_meter"}), ["relay-wall"]),
