@@ -492,6 +492,14 @@ def test_media_are_rejected_clearly():
         nlos_rs.load_dict(d)
 
 
+def test_a_cameras_film_error_names_the_camera():
+    d = nlos_rs.scenes.cornell_box(width=2, height=2, spp=4)
+    d["sensor"]["film"] = {"type": "hdrfilm", "width": 2, "height": 2}
+    with pytest.raises(nlos_rs.SceneError, match="plugin 'perspective': key 'film'") as e:
+        nlos_rs.load_dict(d)
+    assert "nlos_capture_meter" not in str(e.value)
+
+
 def test_unsupported_emitter_is_called_an_emitter():
     d = nlos_rs.scenes.cornell_box(width=2, height=2, spp=4)
     d["light"]["emitter"] = {"type": "spot"}
