@@ -10,6 +10,7 @@ use crate::scene::{Nlos, Scene};
 use crate::settings::CaptureType;
 use glam::{Vec2, Vec3A};
 use std::f32::consts::FRAC_1_PI;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 /// A laser spot p_L on the scene and its NEE to the laser: the light arriving there,
 /// E · W(p_L) · V(p_L, o_L), and, for a Lambertian spot, the radiance it sends towards any vertex
@@ -59,10 +60,10 @@ pub struct Capture {
 impl Capture {
     /// The scan points of `scene` and, with laser sampling, its laser spots (spectra for a mono or
     /// rgb render).
-    pub fn new(scene: &Scene, mono: bool) -> Result<Self> {
+    pub fn new(scene: &Scene, mono: bool, cancel: &AtomicBool) -> Result<Self> {
         let scan_points = scan_points(scene)?;
         let spots = if scene.nlos()?.settings.laser_sampling {
-            laser_spots(scene, &scan_points, mono)?
+            laser_spots(scene, &scan_points, mono, cancel)?
         } else {
             Vec::new()
         };
@@ -133,6 +134,7 @@ pub fn laser_spots(
     scene: &Scene,
     scan_points: &[Option<Interaction>],
     mono: bool,
+    cancel: &AtomicBool,
 ) -> Result<Vec<Spot>> {
     let nlos = scene.nlos()?;
     let (laser, settings) = (&nlos.laser, &nlos.settings);
@@ -148,10 +150,16 @@ pub fn laser_spots(
             .map(|h| h.1)
     };
     // Confocal / equal-grid exhaustive: a spot at every scan point, the laser re-aimed at each.
-    let at_scan_points = || -> Vec<Spot> {
+    let at_scan_points = || -> Result<Vec<Spot>> {
         scan_points
             .iter()
-            .map(|t| t.map_or(Spot::DARK, |it| lit.spot(it, true)))
+            .enumerate()
+            .map(|(i, t)| {
+                if i % 4096 == 4095 && cancel.load(Ordering::Relaxed) {
+                    return Err(NlosError::Interrupted);
+                }
+                Ok(t.map_or(Spot::DARK, |it| lit.spot(it, true)))
+            })
             .collect()
     };
     Ok(match settings.capture_type {
@@ -165,8 +173,8 @@ pub fn laser_spots(
             })?;
             vec![lit.spot(it, false)]
         }
-        CaptureType::Confocal => at_scan_points(),
-        CaptureType::Exhaustive if settings.force_equal_illumination_scanning => at_scan_points(),
+        CaptureType::Confocal => at_scan_points()?,
+        CaptureType::Exhaustive if settings.force_equal_illumination_scanning => at_scan_points()?,
         CaptureType::Exhaustive => {
             // A virtual projector with the emitter's frame scans an LW×LH grid of directions
             // (pixel-centred, Mitsuba's camera convention: uv (0,0) is local (+x, +y)).
@@ -174,6 +182,9 @@ pub fn laser_spots(
             let t = (settings.illumination_scan_fov.to_radians() / 2.0).tan() as f32;
             let mut spots = Vec::with_capacity(lw * lh);
             for ly in 0..lh {
+                if cancel.load(Ordering::Relaxed) {
+                    return Err(NlosError::Interrupted);
+                }
                 for lx in 0..lw {
                     let (u, v) = ((lx as f32 + 0.5) / lw as f32, (ly as f32 + 0.5) / lh as f32);
                     let d = laser.axes[0] * ((1.0 - 2.0 * u) * t)

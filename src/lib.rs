@@ -15,7 +15,7 @@
 //! * [`scene`]: the loaded scene, built from props in `scene/build.rs`.
 //! * [`capture`]: scan points and laser spots of an NLOS capture.
 //! * [`integrator`]: the [`integrator::Tracer`]s (NLOS, HGRS, line of sight).
-//! * [`render`]: the parallel loop that runs a tracer into a film.
+//! * [`render`]: the parallel loop that runs a tracer into a film, on a pool from [`parallel`].
 //!
 //! `python` holds the PyO3 binding, which only converts.
 
@@ -29,6 +29,7 @@ pub mod film;
 pub mod geometry;
 pub mod integrator;
 pub mod math;
+pub mod parallel;
 pub mod props;
 pub mod render;
 pub mod sampling;

@@ -8,6 +8,7 @@ use crate::math::{Transform, luminance};
 use crate::spectrum;
 use glam::DMat4;
 use std::cell::Cell;
+use std::collections::HashMap;
 
 /// A property value.
 #[derive(Clone, Debug)]
@@ -62,6 +63,8 @@ pub struct Props {
     pub id: Option<String>,
     entries: Vec<(String, Value)>,
     used: Vec<Cell<bool>>,
+    /// Key → position in `entries` (scenes can have 100,000 objects: no linear scans).
+    index: HashMap<String, usize>,
 }
 
 /// A colour or a plain number as Mitsuba accepts for `reflectance`, `irradiance`, ...
@@ -177,15 +180,17 @@ impl Props {
             id,
             entries: Vec::new(),
             used: Vec::new(),
+            index: HashMap::new(),
         }
     }
 
     /// Add a property; a repeated name is an error, as in Mitsuba.
     pub fn insert(&mut self, key: impl Into<String>, value: Value) -> Result<()> {
         let key = key.into();
-        if self.entries.iter().any(|(k, _)| *k == key) {
+        if self.index.contains_key(&key) {
             return Err(NlosError::prop(&self.plugin, &key, "given twice"));
         }
+        self.index.insert(key.clone(), self.entries.len());
         self.entries.push((key, value));
         self.used.push(Cell::new(false));
         Ok(())
@@ -196,7 +201,7 @@ impl Props {
     }
 
     fn take(&self, key: &str) -> Option<&Value> {
-        let i = self.entries.iter().position(|(k, _)| k == key)?;
+        let i = *self.index.get(key)?;
         self.used[i].set(true);
         Some(&self.entries[i].1)
     }
@@ -207,7 +212,7 @@ impl Props {
 
     /// Is the key present (without consuming it)?
     pub fn has(&self, key: &str) -> bool {
-        self.entries.iter().any(|(k, _)| k == key)
+        self.index.contains_key(key)
     }
 
     /// Integer property.
@@ -242,9 +247,12 @@ impl Props {
     pub fn float(&self, key: &str, default: f64) -> Result<f64> {
         match self.take(key) {
             None => Ok(default),
-            Some(Value::Float(v)) if v.is_finite() => Ok(*v),
-            Some(Value::Float(v)) => Err(self.err(key, format!("must be finite, got {v}"))),
-            Some(Value::Int(v)) => Ok(*v as f64),
+            Some(Value::Float(v)) if v.is_finite() && v.abs() <= f32::MAX as f64 => Ok(*v),
+            Some(Value::Int(v)) if (*v as f64).abs() <= f32::MAX as f64 => Ok(*v as f64),
+            Some(Value::Float(v)) => Err(self.err(
+                key,
+                format!("must be finite and within single precision, got {v}"),
+            )),
             Some(v) => Err(self.wrong(key, "a float", v)),
         }
     }
@@ -322,29 +330,31 @@ impl Props {
     /// A reflectance-like colour property: a number, an `rgb` value or a `spectrum`
     /// ([`crate::spectrum`]: weighted by D65 and clamped to [0, 1], as Mitsuba does for BSDFs).
     pub fn colour(&self, key: &str, default: Colour) -> Result<Colour> {
-        self.colour_as(key, default, true)
+        // A reflectance above one would create energy: rejected (Mitsuba only clamps spectra).
+        self.colour_as(key, default, true, 1.0)
     }
 
     /// An unbounded number or RGB triple (an index of refraction): a float, an `rgb` value or a
     /// uniform `spectrum`; finite and non-negative.
     pub fn unbounded(&self, key: &str, default: Colour) -> Result<Colour> {
-        if let Some(Value::Spectrum(_)) = self.entries.iter().find(|(k, _)| k == key).map(|e| &e.1)
-        {
+        let entry = self.index.get(key).map(|&i| &self.entries[i].1);
+        if let Some(Value::Spectrum(_) | Value::Object(_)) = entry {
             return Err(self.err(
                 key,
                 "wavelength:value spectra are not supported here: give a float or rgb value",
             ));
         }
-        self.colour_as(key, default, true)
+        self.colour_as(key, default, true, 1e6)
     }
 
     /// An emitted colour (`irradiance`, `radiance`, `intensity`): as [`Props::colour`], but a
     /// `spectrum` is an illuminant (a uniform one is the equal-energy white of that value).
     pub fn emission(&self, key: &str, default: Colour) -> Result<Colour> {
-        self.colour_as(key, default, false)
+        // Bounded so that any product with a laser's scale stays within f32.
+        self.colour_as(key, default, false, 1e20)
     }
 
-    fn colour_as(&self, key: &str, default: Colour, reflectance: bool) -> Result<Colour> {
+    fn colour_as(&self, key: &str, default: Colour, reflectance: bool, max: f64) -> Result<Colour> {
         let c = match self.take(key) {
             None => return Ok(default),
             Some(Value::Float(v)) => Colour::Uniform(*v),
@@ -375,12 +385,13 @@ impl Props {
             }
             Some(v) => return Err(self.wrong(key, "a float, rgb or spectrum", v)),
         };
-        let ok = match c {
-            Colour::Uniform(v) | Colour::Spectral { mono: v, .. } => v.is_finite() && v >= 0.0,
-            Colour::Rgb(c) => c.iter().all(|v| v.is_finite() && *v >= 0.0),
+        let ok = |v: f64| v.is_finite() && (0.0..=max).contains(&v);
+        let valid = match c {
+            Colour::Uniform(v) | Colour::Spectral { mono: v, .. } => ok(v),
+            Colour::Rgb(c) => c.iter().all(|v| ok(*v)),
         };
-        if !ok {
-            return Err(self.err(key, "must be finite and non-negative"));
+        if !valid {
+            return Err(self.err(key, format!("must be finite and in [0, {max}]")));
         }
         Ok(c)
     }

@@ -1,11 +1,15 @@
 //! The render loop: every pixel's samples in parallel (rayon), traced by the scene's
-//! [`Tracer`] and accumulated into the transient film through its splatter (mitransient-model §3.8). Each pixel is rendered by one task from per-(seed, pixel,
-//! block) random streams, so results are bit-identical whatever the thread count. Progress and
-//! cancellation go through atomics so that a caller (the Python binding) can poll them.
+//! [`Tracer`] and accumulated into the transient film through its splatter (mitransient-model
+//! §3.8). Each pixel is rendered by one task from per-(seed, pixel, block) random streams, so
+//! results are bit-identical whatever the thread count. Progress and cancellation go through
+//! atomics so that a caller (the Python binding) can poll them; cancellation is checked after
+//! every sample. Work runs on a thread pool made for the render (never rayon's global pool, so a
+//! forked process can render too), and the output's size is checked before it is allocated.
 
 use crate::error::{NlosError, Result};
 use crate::film::{Film, TemporalKernel};
 use crate::integrator::{NlosTracer, PathTracer, Splat, Tracer};
+use crate::parallel::pool;
 use crate::sampling::Sampler;
 use crate::scene::{Scene, Setup};
 use rayon::prelude::*;
@@ -27,6 +31,20 @@ pub struct RenderOptions {
     pub mono: bool,
     /// Temporal kernel overriding the film's.
     pub kernel: Option<TemporalKernel>,
+    /// Largest output (bytes) the render may allocate; `None`: 80 % of the memory available.
+    pub max_memory: Option<u64>,
+}
+
+/// Memory this process may still use: `MemAvailable` of /proc/meminfo where there is one.
+fn available_memory() -> u64 {
+    std::fs::read_to_string("/proc/meminfo")
+        .ok()
+        .and_then(|s| {
+            s.lines()
+                .find(|l| l.starts_with("MemAvailable:"))
+                .and_then(|l| l.split_whitespace().nth(1)?.parse::<u64>().ok())
+        })
+        .map_or(8 << 30, |kib| kib * 1024)
 }
 
 /// A rendered capture in mitransient's layout.
@@ -54,7 +72,7 @@ pub struct Monitor {
 /// Total samples a render will take (for progress bars).
 pub fn total_samples(scene: &Scene, opts: &RenderOptions) -> u64 {
     let f = &scene.meter.film;
-    (f.width * f.height) as u64 * opts.spp.unwrap_or(scene.meter.spp)
+    ((f.width * f.height) as u64).saturating_mul(opts.spp.unwrap_or(scene.meter.spp))
 }
 
 /// Render `scene`.
@@ -83,9 +101,28 @@ pub fn render(scene: &Scene, opts: &RenderOptions, monitor: &Monitor) -> Result<
             ));
         }
     }
-    match &scene.setup {
+    film.check_kernel()?;
+    let c = if opts.mono { 1 } else { 3 };
+    let limit = opts
+        .max_memory
+        .unwrap_or_else(|| available_memory() / 5 * 4);
+    let shape = output_shape(&film, c);
+    shape
+        .iter()
+        .try_fold(4u64, |acc, &d| acc.checked_mul(d as u64))
+        .filter(|&bytes| bytes <= limit)
+        .ok_or_else(|| {
+            NlosError::prop(
+                "transient_hdr_film",
+                "width",
+                format!(
+                    "the transient {shape:?} (float32) needs more than the {limit} bytes allowed: render a smaller film, or raise render(..., max_memory=...)"
+                ),
+            )
+        })?;
+    pool(opts.threads)?.install(|| match &scene.setup {
         Setup::Nlos(_) => run(
-            &NlosTracer::new(scene, opts.mono)?,
+            &NlosTracer::new(scene, opts.mono, &monitor.cancel)?,
             &film,
             scene,
             spp,
@@ -100,6 +137,20 @@ pub fn render(scene: &Scene, opts: &RenderOptions, monitor: &Monitor) -> Result<
             opts,
             monitor,
         ),
+    })
+}
+
+/// The transient's shape: (H, W, T, C), exhaustive (H, W, LH, LW, T, C); for a phasor film
+/// (frequencies, 2) in place of (T, C).
+fn output_shape(film: &Film, c: usize) -> Vec<usize> {
+    let tail = match &film.phasor {
+        Some(ph) => [ph.frequencies.len(), 2],
+        None => [film.temporal_bins, c],
+    };
+    let (h, w) = (film.height, film.width);
+    match film.laser_scan {
+        Some((lw, lh)) => vec![h, w, lh, lw, tail[0], tail[1]],
+        None => vec![h, w, tail[0], tail[1]],
     }
 }
 
@@ -115,7 +166,7 @@ fn run(
     let seed = scene.meter.seed.wrapping_add(opts.seed);
     let splatter = film.splatter();
     let c = if opts.mono { 1 } else { 3 };
-    let (t, slots, slot_len) = (film.temporal_bins, film.laser_slots(), film.slot_len(c));
+    let (slots, slot_len) = (film.laser_slots(), film.slot_len(c));
     let pixel_len = slots * slot_len;
     let npix = film.width * film.height;
     let mut transient = vec![0.0f32; npix * pixel_len];
@@ -130,6 +181,11 @@ fn run(
             .try_for_each(|(pixel, (buf, st))| {
                 let mut sum = [0.0f64; 3];
                 let mut splat = |s: Splat| {
+                    // Nothing non-finite reaches the film (an overflowing product of extreme
+                    // but valid parameters is dropped, not spread as Inf or NaN).
+                    if !s.value.is_finite() || !s.opl.is_finite() {
+                        return;
+                    }
                     for (k, acc) in sum.iter_mut().enumerate().take(c) {
                         *acc += s.value[k] as f64;
                     }
@@ -152,6 +208,9 @@ fn run(
                     let mut rng = Sampler::new(seed, pixel as u64, start / BLOCK);
                     for _ in 0..n {
                         tracer.trace(pixel, &mut rng, &mut splat);
+                        if monitor.cancel.load(Ordering::Relaxed) {
+                            return Err(NlosError::Interrupted);
+                        }
                     }
                     monitor.done.fetch_add(n, Ordering::Relaxed);
                     start += n;
@@ -166,28 +225,11 @@ fn run(
                 Ok(())
             })
     };
-    match opts.threads {
-        Some(n) => rayon::ThreadPoolBuilder::new()
-            .num_threads(n.max(1))
-            .build()
-            .map_err(|e| NlosError::Scene(format!("cannot start {n} threads: {e}")))?
-            .install(&mut work)?,
-        None => work()?,
-    }
-    let (h, w) = (film.height, film.width);
-    // Per pixel and laser slot: (T, C), or for a phasor film (frequencies, [re, im]).
-    let tail = match &film.phasor {
-        Some(ph) => [ph.frequencies.len(), 2],
-        None => [t, c],
-    };
-    let transient_shape = match film.laser_scan {
-        Some((lw, lh)) => vec![h, w, lh, lw, tail[0], tail[1]],
-        None => vec![h, w, tail[0], tail[1]],
-    };
+    work()?;
     Ok(Rendered {
         steady,
-        steady_shape: vec![h, w, c],
+        steady_shape: vec![film.height, film.width, c],
         transient,
-        transient_shape,
+        transient_shape: output_shape(film, c),
     })
 }

@@ -26,6 +26,12 @@ const OBJECT_TAGS: [&str; 13] = [
     "rfilter",
 ];
 
+/// Deepest nesting of objects read (a scene needs a handful; the limit guards the stack).
+pub const MAX_DEPTH: usize = 64;
+
+/// Largest XML file read.
+pub const MAX_XML_BYTES: u64 = 256 << 20;
+
 struct Reader<'a> {
     path: &'a Path,
     doc: &'a Document<'a>,
@@ -184,6 +190,10 @@ impl Reader<'_> {
     }
 
     fn object(&mut self, node: Node) -> Result<Props> {
+        let depth = node.ancestors().count();
+        if depth > MAX_DEPTH {
+            return Err(self.err(node, format!("objects nested more than {MAX_DEPTH} deep")));
+        }
         let tag = node.tag_name().name();
         let plugin = if tag == "scene" {
             "scene".to_string()
@@ -287,6 +297,20 @@ impl Reader<'_> {
 
 /// Parse a Mitsuba XML scene file; `params` override its `<default>`s.
 pub fn load(path: &Path, params: &HashMap<String, String>) -> Result<Props> {
+    let xml_err = |msg: String| NlosError::Xml {
+        path: path.to_path_buf(),
+        msg,
+    };
+    match std::fs::metadata(path) {
+        Ok(m) if !m.is_file() => return Err(xml_err("is not a regular file".into())),
+        Ok(m) if m.len() > MAX_XML_BYTES => {
+            return Err(xml_err(format!(
+                "is {} bytes, more than the {MAX_XML_BYTES} a scene file may have",
+                m.len()
+            )));
+        }
+        _ => {}
+    }
     let text = std::fs::read_to_string(path).map_err(|e| match e.kind() {
         std::io::ErrorKind::NotFound => NlosError::NotFound(path.to_path_buf()),
         _ => NlosError::Xml {

@@ -150,6 +150,7 @@ fn bit_identical_whatever_the_thread_count() {
                 threads: Some(threads),
                 mono: true,
                 kernel: None,
+                max_memory: None,
             },
             &Monitor::default(),
         )
@@ -172,6 +173,7 @@ fn steady_is_the_time_integral_when_the_window_holds_everything() {
             threads: None,
             mono: false,
             kernel: None,
+            max_memory: None,
         },
         &Monitor::default(),
     )
@@ -204,6 +206,7 @@ fn cancellation_stops_the_render() {
             threads: None,
             mono: true,
             kernel: None,
+            max_memory: None,
         },
         &m,
     );
@@ -229,6 +232,7 @@ fn exhaustive_layout_and_uv() {
             threads: None,
             mono: true,
             kernel: None,
+            max_memory: None,
         },
         &Monitor::default(),
     )

@@ -80,6 +80,24 @@ def to_tal(scene, transient, zero_t_start: bool = False):
 _VARIANTS = {"mono": True, "rgb": False}
 
 
+_UNITS = {"": 1, "B": 1, "KB": 10**3, "MB": 10**6, "GB": 10**9, "KIB": 2**10, "MIB": 2**20, "GIB": 2**30, "TIB": 2**40}
+
+
+def _bytes(v: Union[int, str]) -> int:
+    """Bytes from an integer or a string like "512MiB" or "2 GB"."""
+    if isinstance(v, (int, np.integer)) and not isinstance(v, bool) and 0 < v < 2**64:
+        return int(v)
+    if isinstance(v, str):
+        import re
+
+        m = re.fullmatch(r"\s*([0-9.]+)\s*([A-Za-z]*)\s*", v)
+        if m and m.group(2).upper() in _UNITS:
+            n = float(m.group(1)) * _UNITS[m.group(2).upper()]
+            if 0 < n < 2**64:
+                return int(n)
+    raise SceneError(f"plugin 'render': key 'max_memory': bytes as a positive integer or a string like '512MiB', got {v!r}")
+
+
 def _as_scene(scene: Union[Scene, Mapping[str, Any], str, os.PathLike]) -> Scene:
     if isinstance(scene, Scene):
         return scene
@@ -124,6 +142,7 @@ def render(
     kernel_bandwidth: Optional[float] = None,
     hgrs_max_iterations: Optional[int] = None,
     hgrs_estimator: Optional[str] = None,
+    max_memory: Union[int, str, None] = None,
 ) -> Tuple[np.ndarray, np.ndarray]:
     """Render an NLOS capture; returns ``(steady, transient)`` as float32 arrays.
 
@@ -138,21 +157,27 @@ def render(
     and ``hgrs_estimator`` = ``"resampled"`` (unbiased, default) or ``"rejection"`` (as the thesis
     publishes it, biased)) keeping its other parameters. ``kernel_sigma`` (Gaussian) or
     ``kernel_bandwidth`` (Epanechnikov), in time bins, override the film's temporal kernel.
+
+    The output's size is checked before it is allocated: beyond ``max_memory`` (bytes, or a string
+    such as ``"512MiB"``; default 80 % of the memory available) the render raises ``SceneError``.
     """
     key = variant.split("_")[-1] if variant.startswith(("llvm_", "cuda_", "scalar_")) else variant
     if key not in _VARIANTS:
         raise ValueError(f"variant must be 'mono' or 'rgb', got {variant!r}")
-    if spp is not None and (not isinstance(spp, (int, np.integer)) or spp <= 0):
-        raise ValueError(f"spp must be a positive integer, got {spp!r}")
-    if threads is not None and (not isinstance(threads, (int, np.integer)) or threads <= 0):
-        raise ValueError(f"threads must be a positive integer, got {threads!r}")
-    if not isinstance(seed, (int, np.integer)) or seed < 0:
-        raise ValueError(f"seed must be a non-negative integer, got {seed!r}")
+    def integer(name: str, v: Any, lo: int) -> None:
+        if not isinstance(v, (int, np.integer)) or isinstance(v, bool) or not lo <= v < 2**64:
+            raise SceneError(f"plugin 'render': key '{name}': must be an integer in [{lo}, 2^64), got {v!r}")
+
+    for name, v, lo in (("spp", spp, 1), ("threads", threads, 1), ("seed", seed, 0)):
+        if v is not None:
+            integer(name, v, lo)
+    limit = None if max_memory is None else _bytes(max_memory)
     scene = _as_scene(scene)
     if integrator is not None or hgrs_max_iterations is not None or hgrs_estimator is not None:
-        scene = scene.with_integrator(integrator or scene.integrator, hgrs_max_iterations, hgrs_estimator)
+        name = scene.integrator if integrator is None else integrator
+        scene = scene.with_integrator(name, hgrs_max_iterations, hgrs_estimator)
     bar = _Progress(progress)
     try:
-        return _core.render(scene, spp, int(seed), threads, _VARIANTS[key], bar, kernel_sigma, kernel_bandwidth)
+        return _core.render(scene, spp, int(seed), threads, _VARIANTS[key], bar, kernel_sigma, kernel_bandwidth, limit)
     finally:
         bar.close()

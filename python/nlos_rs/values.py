@@ -29,10 +29,18 @@ def _array(v: Any) -> Any:
     return a.reshape(()) if a.size == 1 else a
 
 
-def normalize(v: Any) -> Any:
+#: Deepest nesting of dicts accepted (a scene needs a handful; the core has the same limit).
+MAX_DEPTH = 64
+
+
+def normalize(v: Any, depth: int = 0) -> Any:
     """Turn transforms, points, colours and arrays into plain nested lists, recursively."""
     if isinstance(v, Mapping):
-        return {k: normalize(x) for k, x in v.items()}
+        if depth > MAX_DEPTH:
+            from ._core import SceneError
+
+            raise SceneError(f"scene dict: objects nested more than {MAX_DEPTH} deep")
+        return {k: normalize(x, depth + 1) for k, x in v.items()}
     if isinstance(v, Enum) and isinstance(v, int):  # e.g. mitransient's CaptureType
         return int(v)
     if isinstance(v, (bool, int, float, str)):

@@ -142,6 +142,23 @@ impl Film {
         })
     }
 
+    /// The temporal kernel must not be wider than the time window (a wider one spreads every
+    /// contribution over nothing but its tails) nor make a weight table beyond a few MiB.
+    pub fn check_kernel(&self) -> Result<()> {
+        let max = (4.0 * self.temporal_bins as f64).min(4096.0);
+        if self.kernel.radius() > max {
+            return Err(NlosError::prop(
+                "transient_hdr_film",
+                "kernel_sigma",
+                format!(
+                    "the temporal kernel reaches {} bins from its centre; at most {max} (4 × temporal_bins, ≤ 4096)",
+                    self.kernel.radius()
+                ),
+            ));
+        }
+        Ok(())
+    }
+
     /// Number of laser slots per pixel (1 unless exhaustive).
     pub fn laser_slots(&self) -> usize {
         self.laser_scan.map_or(1, |(w, h)| w * h)

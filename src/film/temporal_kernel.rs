@@ -67,7 +67,7 @@ impl TemporalKernel {
     }
 
     /// Half-width of the kernel's support, in bins.
-    fn radius(&self) -> f64 {
+    pub fn radius(&self) -> f64 {
         match *self {
             Self::Box => 0.0,
             Self::Gaussian(s) => GAUSSIAN_CUTOFF_SIGMAS * s,

@@ -16,6 +16,77 @@ pub struct Mesh {
     pub triangles: Vec<[u32; 3]>,
 }
 
+/// Largest mesh file read (a file beyond it is refused before reading).
+pub const MAX_MESH_BYTES: u64 = 4 << 30;
+
+/// A mesh file's bytes, after checking that it is a regular file of a sane size (not a device,
+/// a directory or a pipe, which could be endless).
+fn read_mesh_file(path: &Path) -> Result<Vec<u8>> {
+    let meta = std::fs::metadata(path).map_err(|e| match e.kind() {
+        std::io::ErrorKind::NotFound => NlosError::NotFound(path.to_path_buf()),
+        _ => mesh_err(path, e.to_string()),
+    })?;
+    if !meta.is_file() {
+        return Err(mesh_err(path, "is not a regular file"));
+    }
+    if meta.len() > MAX_MESH_BYTES {
+        return Err(mesh_err(
+            path,
+            format!(
+                "is {} bytes, more than the {MAX_MESH_BYTES} a mesh may have",
+                meta.len()
+            ),
+        ));
+    }
+    std::fs::read(path).map_err(|e| mesh_err(path, e.to_string()))
+}
+
+/// Check a PLY header before a parser allocates what it declares: every element has properties,
+/// and the counts cannot need more bytes than the file has (each property takes ≥ 1 byte).
+fn check_ply_header(path: &Path, bytes: &[u8]) -> Result<()> {
+    let end = bytes
+        .windows(10)
+        .take(1 << 16)
+        .position(|w| w == b"end_header")
+        .ok_or_else(|| mesh_err(path, "no 'end_header' in the first 64 KiB"))?;
+    let header = String::from_utf8_lossy(&bytes[..end]);
+    let mut elements: Vec<(String, u64, u64)> = Vec::new();
+    for line in header.lines() {
+        let words: Vec<&str> = line.split_whitespace().collect();
+        match words.as_slice() {
+            ["element", name, count] => {
+                let n = count
+                    .parse::<u64>()
+                    .map_err(|_| mesh_err(path, format!("element '{name}' has count '{count}'")))?;
+                elements.push((name.to_string(), n, 0));
+            }
+            ["property", ..] => match elements.last_mut() {
+                Some(e) => e.2 += 1,
+                None => return Err(mesh_err(path, "a property before any element")),
+            },
+            _ => {}
+        }
+    }
+    let mut need: u64 = 0;
+    for (name, count, props) in &elements {
+        if *count > 0 && *props == 0 {
+            return Err(mesh_err(
+                path,
+                format!("element '{name}' has no properties"),
+            ));
+        }
+        need = need.saturating_add(count.saturating_mul(*props));
+    }
+    let have = (bytes.len() - end) as u64;
+    if need > have {
+        return Err(mesh_err(
+            path,
+            format!("the header declares {need} values but only {have} bytes follow it"),
+        ));
+    }
+    Ok(())
+}
+
 fn mesh_err(path: &Path, msg: impl Into<String>) -> NlosError {
     NlosError::Mesh {
         path: path.to_path_buf(),
@@ -58,15 +129,17 @@ impl Mesh {
 
     /// Load an OBJ file (polygons are triangulated; normals kept if every vertex has one).
     pub fn load_obj(path: &Path) -> Result<Self> {
-        if !path.exists() {
-            return Err(NlosError::NotFound(path.to_path_buf()));
-        }
+        let bytes = read_mesh_file(path)?;
         let opts = tobj::LoadOptions {
             single_index: true,
             triangulate: true,
             ..Default::default()
         };
-        let (models, _) = tobj::load_obj(path, &opts).map_err(|e| mesh_err(path, e.to_string()))?;
+        // Materials are not used: `mtllib` files are never opened.
+        let (models, _) = tobj::load_obj_buf(&mut std::io::Cursor::new(bytes), &opts, |_| {
+            Ok(Default::default())
+        })
+        .map_err(|e| mesh_err(path, e.to_string()))?;
         let mut mesh = Mesh::default();
         let mut all_normals = true;
         let mut normals = Vec::new();
@@ -103,11 +176,9 @@ impl Mesh {
     /// Load a PLY file (ASCII or binary; `vertex` x/y/z [nx/ny/nz], `face` vertex_indices).
     pub fn load_ply(path: &Path) -> Result<Self> {
         use ply_rs::{parser::Parser, ply::Property};
-        let file = std::fs::File::open(path).map_err(|e| match e.kind() {
-            std::io::ErrorKind::NotFound => NlosError::NotFound(path.to_path_buf()),
-            _ => mesh_err(path, e.to_string()),
-        })?;
-        let mut reader = std::io::BufReader::new(file);
+        let bytes = read_mesh_file(path)?;
+        check_ply_header(path, &bytes)?;
+        let mut reader = std::io::Cursor::new(bytes);
         let ply = Parser::<ply_rs::ply::DefaultElement>::new()
             .read_ply(&mut reader)
             .map_err(|e| mesh_err(path, e.to_string()))?;

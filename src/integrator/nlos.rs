@@ -20,6 +20,7 @@ use crate::scene::{AreaSampler, Scene};
 use crate::sensor::Camera;
 use crate::settings::{CaptureType, NlosSettings};
 use glam::Vec3A;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 /// A prepared `transient_nlos_path(_rs)` render.
 pub struct NlosTracer<'a> {
@@ -34,13 +35,16 @@ pub struct NlosTracer<'a> {
     capture: Capture,
     /// A perspective camera as the sensor, instead of the scan points.
     camera: Option<&'a Camera>,
+    /// Set by the caller to stop the render.
+    cancel: &'a AtomicBool,
     /// Hidden-geometry distribution, if that sampling is on.
     hidden: Option<AreaSampler>,
 }
 
 impl<'a> NlosTracer<'a> {
-    /// Prepare a render of `scene` in mono or rgb.
-    pub fn new(scene: &'a Scene, mono: bool) -> Result<Self> {
+    /// Prepare a render of `scene` in mono or rgb; `cancel` stops the preparation and long
+    /// per-sample loops (an exhaustive capture's laser points) early.
+    pub fn new(scene: &'a Scene, mono: bool, cancel: &'a AtomicBool) -> Result<Self> {
         let nlos = scene.nlos()?;
         let settings = &nlos.settings;
         let hidden = if settings.hidden_geometry_sampling {
@@ -68,8 +72,9 @@ impl<'a> NlosTracer<'a> {
             laser: &nlos.laser,
             bsdfs: scene.shape_bsdfs(mono),
             irradiance: nlos.laser.irradiance.spectrum(mono),
-            capture: Capture::new(scene, mono)?,
+            capture: Capture::new(scene, mono, cancel)?,
             camera: nlos.camera.as_ref(),
+            cancel,
             hidden,
         })
     }
@@ -234,6 +239,10 @@ impl<'a> NlosTracer<'a> {
                 // One slot per laser point, or all in one when the film has no laser axis.
                 let per_spot = self.scene.meter.film.laser_scan.is_some();
                 for (slot, spot) in spots.iter().enumerate() {
+                    // Thousands of laser points per vertex: stay responsive to cancellation.
+                    if slot % 1024 == 1023 && self.cancel.load(Ordering::Relaxed) {
+                        return;
+                    }
                     self.connect_spot(v, spot, if per_spot { slot } else { 0 }, out);
                 }
             }

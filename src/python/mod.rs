@@ -13,7 +13,7 @@ use pyo3::types::{PyBool, PyDict, PyFloat, PyInt, PyList, PyString, PyTuple};
 use std::collections::HashMap;
 use std::path::PathBuf;
 use std::sync::Arc;
-use std::sync::atomic::Ordering;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
 
 create_exception!(
@@ -26,9 +26,71 @@ create_exception!(
 impl From<NlosError> for PyErr {
     fn from(e: NlosError) -> PyErr {
         match e {
-            NlosError::NotFound(_) => PyFileNotFoundError::new_err(e.to_string()),
+            NlosError::NotFound(_) => PyFileNotFoundError::new_err(short(&e.to_string())),
             NlosError::Interrupted => PyKeyboardInterrupt::new_err(e.to_string()),
-            _ => SceneError::new_err(e.to_string()),
+            _ => SceneError::new_err(short(&e.to_string())),
+        }
+    }
+}
+
+/// A message cut to a few hundred characters (a value's repr can be megabytes).
+fn short(s: &str) -> String {
+    const MAX: usize = 300;
+    match s.char_indices().nth(MAX) {
+        Some((i, _)) => format!("{}… ({} characters)", &s[..i], s.chars().count()),
+        None => s.to_string(),
+    }
+}
+
+/// Run `work` on its own thread with the GIL released, polling Ctrl-C (and `tick`) every
+/// 100 ms; on an error from Python the shared cancel flag is set and the work stops soon after.
+fn interruptible<T: Send>(
+    py: Python<'_>,
+    cancel: &AtomicBool,
+    work: impl FnOnce() -> PyResult<T> + Send,
+    mut tick: impl FnMut() -> PyResult<()>,
+) -> PyResult<T> {
+    std::thread::scope(|s| {
+        let job = s.spawn(work);
+        let stop = |e: PyErr| {
+            cancel.store(true, Ordering::Relaxed);
+            e
+        };
+        loop {
+            let finished = py.detach(|| {
+                for _ in 0..10 {
+                    if job.is_finished() {
+                        return true;
+                    }
+                    std::thread::sleep(Duration::from_millis(10));
+                }
+                job.is_finished()
+            });
+            tick().map_err(stop)?;
+            if finished {
+                break;
+            }
+            py.check_signals().map_err(stop)?;
+        }
+        job.join()
+            .map_err(|_| SceneError::new_err("worker thread panicked (please report it)"))?
+    })
+}
+
+/// Run scene building, turning a panic (a bug: every bad input must get its own error) into a
+/// `SceneError` instead of a `PanicException` that `except Exception` would miss.
+fn guarded<T>(f: impl FnOnce() -> crate::Result<T>) -> PyResult<T> {
+    match std::panic::catch_unwind(std::panic::AssertUnwindSafe(f)) {
+        Ok(r) => r.map_err(PyErr::from),
+        Err(p) => {
+            let what = p
+                .downcast_ref::<&str>()
+                .map(|s| s.to_string())
+                .or_else(|| p.downcast_ref::<String>().cloned())
+                .unwrap_or_default();
+            Err(SceneError::new_err(short(&format!(
+                "internal error while loading the scene (please report it): {what}"
+            ))))
         }
     }
 }
@@ -59,7 +121,7 @@ fn numbers(v: &Bound<'_, PyAny>) -> Option<Vec<f64>> {
 
 /// Convert one dict value (already normalised by the Python layer: transforms and arrays are
 /// nested lists).
-fn value(plugin: &str, key: &str, v: &Bound<'_, PyAny>) -> PyResult<Value> {
+fn value(plugin: &str, key: &str, v: &Bound<'_, PyAny>, depth: usize) -> PyResult<Value> {
     if v.is_instance_of::<PyBool>() {
         return Ok(Value::Bool(v.extract()?));
     }
@@ -133,7 +195,7 @@ fn value(plugin: &str, key: &str, v: &Bound<'_, PyAny>) -> PyResult<Value> {
                         .map_err(|_| bad("ref", "id", "must be a string"))?,
                 ))
             }
-            _ => Ok(Value::Object(object(&ty, None, d)?)),
+            _ => Ok(Value::Object(object(&ty, None, d, depth + 1)?)),
         };
     }
     if let Some(n) = numbers(v)
@@ -158,15 +220,31 @@ fn value(plugin: &str, key: &str, v: &Bound<'_, PyAny>) -> PyResult<Value> {
         key,
         format!(
             "unsupported value {}",
-            v.repr().map(|r| r.to_string()).unwrap_or_default()
+            short(&v.repr().map(|r| r.to_string()).unwrap_or_default())
         ),
     ))
 }
 
-fn object(plugin: &str, id: Option<String>, d: &Bound<'_, PyDict>) -> PyResult<Props> {
+fn object(
+    plugin: &str,
+    id: Option<String>,
+    d: &Bound<'_, PyDict>,
+    depth: usize,
+) -> PyResult<Props> {
+    if depth > crate::xml::MAX_DEPTH {
+        return Err(bad(
+            plugin,
+            "type",
+            format!("objects nested more than {} deep", crate::xml::MAX_DEPTH),
+        ));
+    }
     let mut props = Props::new(plugin, id);
     let mut own_id = None;
-    for (k, v) in d.iter() {
+    for (n, (k, v)) in d.iter().enumerate() {
+        // A dict of 100,000 objects converts for a while: keep Ctrl-C working.
+        if n % 1024 == 1023 {
+            d.py().check_signals()?;
+        }
         let key: String = k
             .extract()
             .map_err(|_| bad(plugin, "?", "dict keys must be strings"))?;
@@ -181,7 +259,7 @@ fn object(plugin: &str, id: Option<String>, d: &Bound<'_, PyDict>) -> PyResult<P
             }
             _ => {}
         }
-        let mut val = value(plugin, &key, &v)?;
+        let mut val = value(plugin, &key, &v, depth)?;
         // Top-level objects of a scene take their dict key as id (as mi.load_dict does).
         if plugin == "scene"
             && let Value::Object(o) = &mut val
@@ -363,7 +441,12 @@ impl PyScene {
     /// the scan grid (H, W, 3) for confocal, (LH, LW, 3) for exhaustive (NaN where the laser misses).
     fn laser_points(&self) -> PyResult<(Grid3, Grid3)> {
         let s = self.get();
-        let spots = crate::capture::laser_spots(&s, &crate::capture::scan_points(&s)?, true)?;
+        let spots = crate::capture::laser_spots(
+            &s,
+            &crate::capture::scan_points(&s)?,
+            true,
+            &Default::default(),
+        )?;
         let settings = &s.nlos()?.settings;
         let f = &s.meter.film;
         let w = match (settings.capture_type, f.laser_scan) {
@@ -431,21 +514,35 @@ fn load_dict(
     if ty.as_deref() != Some("scene") {
         return Err(SceneError::new_err("the scene dict needs 'type': 'scene'"));
     }
-    let props = object("scene", None, d)?;
+    let props = object("scene", None, d, 0)?;
     let dir = base_dir.unwrap_or_else(|| PathBuf::from("."));
-    Ok(PyScene::wrap(
-        py.detach(move || crate::Scene::from_props(&props, &dir))?,
-    ))
+    let cancel = AtomicBool::new(false);
+    let flag = &cancel;
+    let scene = interruptible(
+        py,
+        &cancel,
+        move || guarded(|| crate::Scene::load(&props, &dir, flag)),
+        || Ok(()),
+    )?;
+    Ok(PyScene::wrap(scene))
 }
 
 /// Load a Mitsuba XML scene file; `params` substitute `$name`s.
 #[pyfunction]
 fn load_file(py: Python<'_>, path: PathBuf, params: HashMap<String, String>) -> PyResult<PyScene> {
-    let scene = py.detach(|| {
-        let props = crate::xml::load(&path, &params)?;
-        let dir = path.parent().map(PathBuf::from).unwrap_or_default();
-        crate::Scene::from_props(&props, &dir)
-    })?;
+    let cancel = AtomicBool::new(false);
+    let scene = interruptible(
+        py,
+        &cancel,
+        || {
+            guarded(|| {
+                let props = crate::xml::load(&path, &params)?;
+                let dir = path.parent().map(PathBuf::from).unwrap_or_default();
+                crate::Scene::load(&props, &dir, &cancel)
+            })
+        },
+        || Ok(()),
+    )?;
     Ok(PyScene::wrap(scene))
 }
 
@@ -457,7 +554,7 @@ type Arrays<'py> = (Bound<'py, PyAny>, Bound<'py, PyAny>);
 /// Render with the GIL released. `progress(done, total)` is called about ten times a second;
 /// Ctrl-C cancels within a poll interval.
 #[pyfunction]
-#[pyo3(signature = (scene, spp=None, seed=0, threads=None, mono=true, progress=None, kernel_sigma=None, kernel_bandwidth=None))]
+#[pyo3(signature = (scene, spp=None, seed=0, threads=None, mono=true, progress=None, kernel_sigma=None, kernel_bandwidth=None, max_memory=None))]
 #[allow(clippy::too_many_arguments)]
 fn render<'py>(
     py: Python<'py>,
@@ -469,6 +566,7 @@ fn render<'py>(
     progress: Option<Bound<'py, PyAny>>,
     kernel_sigma: Option<f64>,
     kernel_bandwidth: Option<f64>,
+    max_memory: Option<u64>,
 ) -> PyResult<Arrays<'py>> {
     let scene = scene.get();
     let kernel = match (kernel_sigma, kernel_bandwidth) {
@@ -481,38 +579,21 @@ fn render<'py>(
         seed,
         threads,
         mono,
+        max_memory,
     };
     let total = total_samples(&scene, &opts);
     let monitor = Monitor::default();
-    let out = std::thread::scope(|s| -> PyResult<_> {
-        let job = s.spawn(|| core_render(&scene, &opts, &monitor));
-        let stop = |e: PyErr| {
-            monitor.cancel.store(true, Ordering::Relaxed);
-            e
-        };
-        loop {
-            let finished = py.detach(|| {
-                for _ in 0..10 {
-                    if job.is_finished() {
-                        return true;
-                    }
-                    std::thread::sleep(Duration::from_millis(10));
-                }
-                job.is_finished()
-            });
-            if let Some(cb) = &progress {
-                cb.call1((monitor.done.load(Ordering::Relaxed), total))
-                    .map_err(stop)?;
-            }
-            if finished {
-                break;
-            }
-            py.check_signals().map_err(stop)?;
-        }
-        job.join()
-            .map_err(|_| SceneError::new_err("render thread panicked"))?
-            .map_err(PyErr::from)
-    })?;
+    let out = interruptible(
+        py,
+        &monitor.cancel,
+        || core_render(&scene, &opts, &monitor).map_err(PyErr::from),
+        || match &progress {
+            Some(cb) => cb
+                .call1((monitor.done.load(Ordering::Relaxed), total))
+                .map(|_| ()),
+            None => Ok(()),
+        },
+    )?;
     let steady = PyArray1::from_vec(py, out.steady).reshape(out.steady_shape)?;
     let transient = PyArray1::from_vec(py, out.transient).reshape(out.transient_shape)?;
     Ok((steady.into_any(), transient.into_any()))

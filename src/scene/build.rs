@@ -16,8 +16,12 @@ use crate::settings::{CaptureType, NlosSettings, PathSettings};
 use glam::Vec3A;
 use std::collections::HashMap;
 use std::path::Path;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 const SHAPES: [&str; 6] = ["obj", "ply", "rectangle", "disk", "cube", "sphere"];
+
+/// Largest |coordinate| of any shape (single-precision geometry stays accurate well inside it).
+const MAX_COORD: f32 = 1e12;
 
 /// Mitsuba's BSDF plugins that nlos_rs does not read yet (an error names them as BSDFs).
 const OTHER_BSDFS: [&str; 7] = [
@@ -255,6 +259,20 @@ impl Parts {
         });
         let geometry = shape_geometry(p, &to_world, base_dir)?;
         p.finish()?;
+        // Rays, areas and the BVH are single precision: keep every shape well inside its range.
+        if let Some(q) = geometry.prims.iter().find(|q| {
+            let (lo, hi) = q.bounds();
+            !(lo.is_finite() && hi.is_finite() && lo.abs().max(hi.abs()).max_element() <= MAX_COORD)
+        }) {
+            return Err(NlosError::prop(
+                plugin,
+                "to_world",
+                format!(
+                    "shape '{key}' reaches {:?}: coordinates must lie within ±{MAX_COORD:e}",
+                    q.bounds().1
+                ),
+            ));
+        }
         let area: f64 = geometry.prims.iter().map(|q| q.area() as f64).sum();
         if !(area > 0.0) {
             return Err(NlosError::prop(
@@ -451,6 +469,12 @@ fn apply_kernel(mut meter: Meter, kernel: Option<TemporalKernel>) -> Result<Mete
 impl Scene {
     /// Build from a `scene` property tree; relative mesh paths resolve against `base_dir`.
     pub fn from_props(root: &Props, base_dir: &Path) -> Result<Self> {
+        Self::load(root, base_dir, &AtomicBool::new(false))
+    }
+
+    /// [`Scene::from_props`] that stops with [`NlosError::Interrupted`] once `cancel` is set
+    /// (checked between objects: a scene of 100,000 objects stays interruptible).
+    pub fn load(root: &Props, base_dir: &Path, cancel: &AtomicBool) -> Result<Self> {
         if root.plugin != "scene" {
             return Err(NlosError::Scene(format!(
                 "the root object must be of type 'scene', got '{}'",
@@ -465,13 +489,24 @@ impl Scene {
                 && bsdf::PLUGINS.contains(&p.plugin.as_str())
             {
                 parts.bsdfs.push(Bsdf::from_props(p)?);
-                parts.scene_bsdfs.insert(
-                    p.id.clone().unwrap_or_else(|| key.clone()),
-                    parts.bsdfs.len() - 1,
-                );
+                let id = p.id.clone().unwrap_or_else(|| key.clone());
+                if parts
+                    .scene_bsdfs
+                    .insert(id.clone(), parts.bsdfs.len() - 1)
+                    .is_some()
+                {
+                    return Err(NlosError::prop(
+                        &p.plugin,
+                        "id",
+                        format!("two objects have the id '{id}'"),
+                    ));
+                }
             }
         }
-        for (key, v) in &children {
+        for (i, (key, v)) in children.iter().enumerate() {
+            if i % 256 == 255 && cancel.load(Ordering::Relaxed) {
+                return Err(NlosError::Interrupted);
+            }
             let Value::Object(p) = v else {
                 return Err(NlosError::prop(
                     "scene",
@@ -495,7 +530,10 @@ impl Scene {
                 )));
             }
         };
-        let accel = std::sync::Arc::new(Accel::build(&parts.prims));
+        // The BVH builds in parallel, on a pool of its own (see `parallel`).
+        let accel = std::sync::Arc::new(
+            crate::parallel::pool(None)?.install(|| Accel::build(&parts.prims)),
+        );
         Ok(Self {
             shapes: parts.shapes,
             bsdfs: parts.bsdfs,

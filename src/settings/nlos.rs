@@ -44,11 +44,12 @@ pub struct Hgrs {
 
 impl Hgrs {
     fn parse(plugin: &str, max_iterations: i64, estimator: &str) -> Result<Self> {
-        if !(1..=1_000_000).contains(&max_iterations) {
+        // Bounded so that one sample stays short enough for Ctrl-C to act within a poll.
+        if !(1..=10_000).contains(&max_iterations) {
             return Err(NlosError::prop(
                 plugin,
                 "hgrs_max_iterations",
-                format!("must be in [1, 1000000], got {max_iterations}"),
+                format!("must be in [1, 10000], got {max_iterations}"),
             ));
         }
         let estimator = match estimator {
