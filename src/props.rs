@@ -302,8 +302,15 @@ impl Props {
     pub fn vec3(&self, key: &str, default: [f64; 3]) -> Result<[f64; 3]> {
         match self.take(key) {
             None => Ok(default),
-            Some(Value::Vec3(v)) if v.iter().all(|x| x.is_finite()) => Ok(*v),
-            Some(Value::Vec3(_)) => Err(self.err(key, "must be finite")),
+            Some(Value::Vec3(v))
+                if v.iter()
+                    .all(|x| x.is_finite() && x.abs() <= f32::MAX as f64) =>
+            {
+                Ok(*v)
+            }
+            Some(Value::Vec3(_)) => {
+                Err(self.err(key, "must be finite and within single precision"))
+            }
             Some(v) => Err(self.wrong(key, "a point (three numbers)", v)),
         }
     }

@@ -156,8 +156,12 @@ fn shape_geometry(p: &Props, to_world: &Transform, base_dir: &Path) -> Result<Ge
             // "sphere"
             let c = p.vec3("center", [0.0; 3])?;
             let r = p.float("radius", 1.0)?;
-            if !(r > 0.0) {
-                return Err(NlosError::prop(plugin, "radius", "must be positive"));
+            if !(r > 0.0 && r <= MAX_COORD as f64) {
+                return Err(NlosError::prop(
+                    plugin,
+                    "radius",
+                    format!("must be in (0, {MAX_COORD:e}], got {r}"),
+                ));
             }
             let lin = to_world.m.matrix3;
             let (sx, sy, sz) = (
