@@ -43,7 +43,7 @@ def normalize(v: Any, depth: int = 0) -> Any:
         return {k: normalize(x, depth + 1) for k, x in v.items()}
     if isinstance(v, Enum) and isinstance(v, int):  # e.g. mitransient's CaptureType
         return int(v)
-    if isinstance(v, (bool, int, float, str)):
+    if v is None or isinstance(v, (bool, int, float, str)):
         return v
     if isinstance(v, np.generic):
         return v.item()

@@ -129,7 +129,11 @@ impl Mesh {
 
     /// Load an OBJ file (polygons are triangulated; normals kept if every vertex has one).
     pub fn load_obj(path: &Path) -> Result<Self> {
-        let bytes = read_mesh_file(path)?;
+        Self::parse_obj(&read_mesh_file(path)?, path)
+    }
+
+    /// Parse OBJ text (`path` names it in errors); `mtllib` files are never opened.
+    pub fn parse_obj(bytes: &[u8], path: &Path) -> Result<Self> {
         let opts = tobj::LoadOptions {
             single_index: true,
             triangulate: true,
@@ -175,9 +179,13 @@ impl Mesh {
 
     /// Load a PLY file (ASCII or binary; `vertex` x/y/z [nx/ny/nz], `face` vertex_indices).
     pub fn load_ply(path: &Path) -> Result<Self> {
+        Self::parse_ply(&read_mesh_file(path)?, path)
+    }
+
+    /// Parse PLY bytes (`path` names it in errors), its header checked first.
+    pub fn parse_ply(bytes: &[u8], path: &Path) -> Result<Self> {
         use ply_rs::{parser::Parser, ply::Property};
-        let bytes = read_mesh_file(path)?;
-        check_ply_header(path, &bytes)?;
+        check_ply_header(path, bytes)?;
         let mut reader = std::io::Cursor::new(bytes);
         let ply = Parser::<ply_rs::ply::DefaultElement>::new()
             .read_ply(&mut reader)

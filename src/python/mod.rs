@@ -510,7 +510,7 @@ fn load_dict(
     d: &Bound<'_, PyDict>,
     base_dir: Option<PathBuf>,
 ) -> PyResult<PyScene> {
-    let ty: Option<String> = d.get_item("type")?.map(|t| t.extract()).transpose()?;
+    let ty: Option<String> = d.get_item("type")?.and_then(|t| t.extract().ok());
     if ty.as_deref() != Some("scene") {
         return Err(SceneError::new_err("the scene dict needs 'type': 'scene'"));
     }
