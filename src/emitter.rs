@@ -40,6 +40,14 @@ impl Projector {
             ));
         }
         let irradiance = irr.scaled(scale);
+        // Laser power enters every contribution: keep it where single precision has headroom.
+        if irradiance.spectrum(false).max_element() > 1e20 {
+            return Err(NlosError::prop(
+                "projector",
+                "scale",
+                "irradiance × scale must be at most 1e20",
+            ));
+        }
         let fov = p.float("fov", 30.0)?;
         if !(fov > 0.0 && fov < 180.0) {
             return Err(NlosError::prop(

@@ -252,6 +252,25 @@ def test_loading_is_linear_in_scene_size():
     assert len(scene.shape_ids) == 100_002 and seconds < 10
 
 
+def test_a_large_xml_scene_loads_in_linear_time(tmp_path):
+    shapes = "".join(f'<shape type="sphere"><point name="center" x="{i % 400}" y="{i // 400}" z="5"/>'
+                     f'<float name="radius" value="0.1"/></shape>' for i in range(200_000))
+    nlos_rs.save_xml(nlos_rs.scenes.z_nlos_1corner(width=2, height=2, spp=1), tmp_path / "base.xml")
+    text = (tmp_path / "base.xml").read_text().replace("</scene>", shapes + "</scene>")
+    (tmp_path / "big.xml").write_text(text)
+    t = time.perf_counter()
+    scene = nlos_rs.load_file(tmp_path / "big.xml")
+    print(f"\n200,000 XML shapes load in {time.perf_counter() - t:.2f} s")
+    assert len(scene.shape_ids) == 200_002 and time.perf_counter() - t < 20
+
+
+def test_a_mistyped_nested_object_is_named_for_what_it_is():
+    d = small()
+    d["z"]["bsdf"] = {"type": "cube"}
+    with pytest.raises(SceneError, match="unexpected nested 'cube'"):
+        nlos_rs.load_dict(d)
+
+
 def test_threads_are_capped():
     with pytest.raises(SceneError, match="threads"):
         nlos_rs.render(small(), threads=10**6, progress=False)
@@ -273,12 +292,20 @@ nlos_rs.load_dict(d)
 """, *words)
 
 
-def test_extreme_but_valid_values_never_put_nan_or_inf_in_the_film():
+def test_laser_power_beyond_single_precision_is_refused():
     d = small()
     d["laser"]["irradiance"] = 1e20
     d["laser"]["scale"] = 1e20
+    with pytest.raises(SceneError, match="scale"):
+        nlos_rs.load_dict(d)
+
+
+def test_extreme_but_valid_values_never_put_nan_or_inf_in_the_film():
+    d = small(max_depth=-1, nlos_hidden_geometry_sampling_includes_relay_wall=True)
+    d["laser"]["irradiance"] = 1e20
+    d["relay_wall"]["nlos_sensor"]["film"]["bin_width_opl"] = 1e-30
     steady, transient = nlos_rs.render(d, progress=False)
-    assert np.isfinite(transient).all() and np.isfinite(steady).all()
+    assert np.isfinite(transient).all() and np.isfinite(steady).all() and steady.sum() > 0
 
 
 # ---- Unclear errors
