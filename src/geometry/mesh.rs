@@ -50,6 +50,15 @@ fn check_ply_header(path: &Path, bytes: &[u8]) -> Result<()> {
         .position(|w| w == b"end_header")
         .ok_or_else(|| mesh_err(path, "no 'end_header' in the first 64 KiB"))?;
     let header = String::from_utf8_lossy(&bytes[..end]);
+    // ply-rs reads header numbers as u64 and panics beyond: no number that long.
+    let longest_number = header
+        .split(|c: char| !c.is_ascii_digit())
+        .map(str::len)
+        .max()
+        .unwrap_or(0);
+    if longest_number > 18 {
+        return Err(mesh_err(path, "a number in the header has more than 18 digits"));
+    }
     let mut elements: Vec<(String, u64, u64)> = Vec::new();
     for line in header.lines() {
         let words: Vec<&str> = line.split_whitespace().collect();

@@ -97,7 +97,8 @@ def test_huge_kernel_is_refused_at_once():
     assert time.perf_counter() - t < 20
 
 
-@pytest.mark.parametrize("kind", ["dev_zero_mesh", "dev_zero_mtllib", "ply_no_properties", "ply_huge_count"])
+@pytest.mark.parametrize("kind", ["dev_zero_mesh", "dev_zero_mtllib", "ply_no_properties", "ply_huge_count",
+                                  "ply_long_version"])
 def test_hostile_mesh_files(tmp_path, kind):
     if kind == "dev_zero_mesh":
         path = "/dev/zero"
@@ -107,9 +108,12 @@ def test_hostile_mesh_files(tmp_path, kind):
     elif kind == "ply_no_properties":
         path = tmp_path / "m.ply"
         path.write_bytes(b"ply\nformat binary_little_endian 1.0\nelement vertex 4000000000\nend_header\n")
-    else:
+    elif kind == "ply_huge_count":
         path = tmp_path / "m.ply"
         path.write_text("ply\nformat ascii 1.0\nelement vertex 99999999999999999999999\nproperty float x\nend_header\n")
+    else:  # found by the ply fuzz target: ply-rs panicked on a 60-digit version number
+        path = tmp_path / "m.ply"
+        path.write_text("ply\nformat ascii 1." + "5" * 60 + "\nelement vertex 1\nproperty float x\nend_header\n0\n")
     code = f"""
 d = nlos_rs.scenes.z_nlos_1corner(width=2, height=2, spp=1)
 d["z"]["type"] = {'obj' if kind.startswith('dev_zero') and kind != 'dev_zero_mesh' else ('ply' if 'ply' in kind else 'obj')!r}
