@@ -57,7 +57,10 @@ fn check_ply_header(path: &Path, bytes: &[u8]) -> Result<()> {
         .max()
         .unwrap_or(0);
     if longest_number > 18 {
-        return Err(mesh_err(path, "a number in the header has more than 18 digits"));
+        return Err(mesh_err(
+            path,
+            "a number in the header has more than 18 digits",
+        ));
     }
     let mut elements: Vec<(String, u64, u64)> = Vec::new();
     for line in header.lines() {
