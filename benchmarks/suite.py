@@ -1,0 +1,200 @@
+"""Benchmark suite (not a test): nlos_rs against mitransient 1.3.1 on several workloads, in one run,
+both on the same threads, warm, interleaved, median of repeats. Prints paths/s and the ratio per
+workload as a Markdown table, and nlos_rs's scaling from 1 to 2 threads.
+
+    python benchmarks/suite.py [--threads 2] [--repeats 3] [--only NAME ...] [--quick]
+
+Workloads (most were not tuned for): the built-in Z (single, confocal, exhaustive); a one-sided
+flat letter at 1 m, unbounded depth, albedo 0.7; a 200k-triangle bumpy sphere; the T behind two
+corners (five-vertex signal); Mitsuba's own mi.cornell_box() made transient (line of sight); a
+1×1 capture; rgb. mitransient's time is its render call with dr.eval + dr.sync_thread.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import platform
+import statistics
+import time
+from pathlib import Path
+
+import numpy as np
+
+
+def flat_letter_mesh(path: Path) -> str:
+    """A one-sided flat 'F' (front faces towards -z), 0.6 × 0.8 m, as OBJ."""
+    import nlos_rs
+
+    rects = [(-0.3, -0.4, -0.15, 0.4), (-0.15, 0.25, 0.3, 0.4), (-0.15, -0.05, 0.2, 0.1)]
+    v, f = [], []
+    for x0, y0, x1, y1 in rects:
+        b = len(v)
+        v += [(x0, y0, 0.0), (x1, y0, 0.0), (x1, y1, 0.0), (x0, y1, 0.0)]
+        f += [(b, b + 2, b + 1), (b, b + 3, b + 2)]  # normal -z, towards the wall
+    return str(nlos_rs.scenes.write_obj(path, np.array(v), np.array(f)))
+
+
+def bumpy_sphere_mesh(path: Path, n: int = 317) -> str:
+    """A latitude–longitude sphere of radius 0.3 with bumps: ~2n² ≈ 200k triangles."""
+    import nlos_rs
+
+    th, ph = np.meshgrid(np.linspace(0, np.pi, n), np.linspace(0, 2 * np.pi, n, endpoint=False), indexing="ij")
+    r = 0.3 * (1 + 0.05 * np.sin(7 * th) * np.cos(9 * ph))
+    v = np.stack([r * np.sin(th) * np.cos(ph), r * np.sin(th) * np.sin(ph), r * np.cos(th)], -1).reshape(-1, 3)
+    f = []
+    for i in range(n - 1):
+        for j in range(n):
+            a, b, c, d = i * n + j, i * n + (j + 1) % n, (i + 1) * n + j, (i + 1) * n + (j + 1) % n
+            f += [(a, c, b), (b, c, d)]
+    return str(nlos_rs.scenes.write_obj(path, v, np.array(f)))
+
+
+def workloads(quick: bool):
+    """name → (a function making the scene dict, variant); scenes are made only when run."""
+    import nlos_rs
+    from nlos_rs import scenes
+
+    div = 16 if quick else 1
+    T = nlos_rs.Transform4f
+
+    def z(spp, **kw):
+        return scenes.z_nlos_1corner(spp=max(1, spp // div), **kw)
+
+    def flat():
+        d = z(4096, width=64, height=64)
+        d["z"] = {"type": "obj", "filename": flat_letter_mesh(scenes.cache_dir() / "bench_flat_f.obj"),
+                  "to_world": T().translate([0.0, 0.0, 1.0]), "bsdf": {"type": "diffuse", "reflectance": 0.7}}
+        return d
+
+    def big():
+        d = z(1024, width=64, height=64)
+        d["z"] = {"type": "obj", "filename": bumpy_sphere_mesh(scenes.cache_dir() / "bench_bumpy_200k.obj"),
+                  "to_world": T().translate([0.0, 0.0, 1.0]), "bsdf": {"type": "diffuse", "reflectance": 0.8}}
+        return d
+
+    def cornell():
+        from nlos_rs.mitsuba_compat import import_mitransient
+
+        mi, _ = import_mitransient("llvm_ad_mono")
+        c = mi.cornell_box()
+        c["sensor"]["film"].update(width=32, height=32, rfilter={"type": "box"})
+        c["sensor"]["sampler"]["sample_count"] = max(1, 1024 // div)
+        return scenes.to_transient(c)
+
+    return {
+        "z_single": (lambda: z(4096, width=64, height=64), "mono"),
+        "z_confocal": (lambda: z(4096, width=64, height=64, capture_type="confocal"), "mono"),
+        "z_exhaustive": (lambda: z(1024, width=8, height=8, capture_type="exhaustive"), "mono"),
+        "flat_onesided": (flat, "mono"),
+        "mesh_200k": (big, "mono"),
+        "t_two_corners": (lambda: scenes.t_nlos_2corner("small", width=32, height=32, spp=max(1, 1024 // div),
+                                                        filter_bounces=4), "mono"),
+        "cornell_los": (cornell, "mono"),
+        "one_pixel": (lambda: z(1 << 22, width=1, height=1), "mono"),
+        "z_rgb": (lambda: z(4096, width=32, height=32), "rgb"),
+    }
+
+
+def spp_of(d) -> int:
+    for v in d.values():
+        if isinstance(v, dict):
+            if v.get("type") == "independent":
+                return v["sample_count"]
+            found = spp_of(v)
+            if found:
+                return found
+    return 0
+
+
+def pixels(d) -> int:
+    for v in d.values():
+        if isinstance(v, dict):
+            if v.get("type") == "transient_hdr_film":
+                return v["width"] * v["height"]
+            found = pixels(v)
+            if found:
+                return found
+    return 0
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--threads", type=int, default=2)
+    ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--only", nargs="*")
+    ap.add_argument("--quick", action="store_true", help="16x fewer samples (a smoke run)")
+    ap.add_argument("--one", help=argparse.SUPPRESS)  # internal: run one workload in this process
+    args = ap.parse_args()
+    if args.one is None:
+        # Each workload in a fresh process: mitransient registers its plugins for one Mitsuba
+        # variant only, and no run's caches or pools help the next.
+        import subprocess
+        import sys
+
+        names = args.only or list(workloads(args.quick))
+        rows = []
+        for name in names:
+            cmd = [sys.executable, __file__, "--one", name, "--threads", str(args.threads), "--repeats", str(args.repeats)]
+            out = subprocess.run(cmd + (["--quick"] if args.quick else []), capture_output=True, text=True).stdout
+            row = [line for line in out.splitlines() if line.startswith("ROW ")]
+            if row:
+                rows.append(row[0][4:].split("\t"))
+                print(out.splitlines()[0], flush=True)
+        import nlos_rs
+
+        print(f"\n{platform.processor() or platform.machine()}, {os.cpu_count()} cores, {args.threads} threads, "
+              f"nlos_rs {nlos_rs.__version__}, mitransient 1.3.1 (llvm_ad), median of {args.repeats}\n")
+        print("| workload | paths | nlos_rs (M paths/s) | mitransient (M paths/s) | ratio | nlos_rs 1→2 threads |")
+        print("|---|---:|---:|---:|---:|---:|")
+        for name, paths, a, b, r, sc in rows:
+            print(f"| {name} | {float(paths) / 1e6:.1f} M | {float(a):.2f} | {float(b):.2f} | **{float(r):.2f}×** | {float(sc):.2f}× |")
+        return
+
+    import nlos_rs
+    from nlos_rs.mitsuba_compat import import_mitransient, to_mitsuba
+
+    rows = []
+    for name, (make, variant) in workloads(args.quick).items():
+        if name != args.one:
+            continue
+        mi, mitr = import_mitransient(f"llvm_ad_{variant}")
+        d = make()
+        import drjit as dr
+
+        dr.set_thread_count(args.threads)
+        spp, npix = spp_of(d), pixels(d)
+        paths = spp * npix
+        ours_scene = nlos_rs.load_dict(d)
+        theirs_scene = mi.load_dict(to_mitsuba(d))
+
+        def ours(threads=args.threads) -> float:
+            t0 = time.perf_counter()
+            nlos_rs.render(ours_scene, threads=threads, progress=False, variant=variant)
+            return time.perf_counter() - t0
+
+        def theirs() -> float:
+            t0 = time.perf_counter()
+            steady, transient = mi.render(theirs_scene, spp=spp)
+            dr.eval(steady, transient)
+            dr.sync_thread()
+            return time.perf_counter() - t0
+
+        ours(), theirs()
+        to, tt = [], []
+        for _ in range(args.repeats):
+            to.append(ours())
+            tt.append(theirs())
+        mo, mt = statistics.median(to), statistics.median(tt)
+        one = statistics.median([ours(1) for _ in range(max(1, args.repeats // 2))])
+        rows.append((name, paths, paths / mo / 1e6, paths / mt / 1e6, mt / mo, one / mo))
+        print(f"{name:16s} {paths / 1e6:8.1f} M paths  nlos_rs {paths / mo / 1e6:7.2f}  mitransient {paths / mt / 1e6:7.2f} "
+              f"M paths/s  ratio {mt / mo:5.2f}x  scaling 1->{args.threads} threads {one / mo:4.2f}x", flush=True)
+
+    for row in rows:
+        print("ROW " + "\t".join(str(x) for x in row))
+
+
+if __name__ == "__main__":
+    os.environ.setdefault("OMP_NUM_THREADS", "1")
+    main()
