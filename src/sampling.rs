@@ -29,6 +29,11 @@ impl Sampler {
     pub fn next_1d(&mut self) -> f32 {
         (self.0.next_u32() >> 8) as f32 * (1.0 / 16_777_216.0)
     }
+    /// A uniform 32-bit integer.
+    #[inline]
+    pub fn next_u32(&mut self) -> u32 {
+        self.0.next_u32()
+    }
     /// Two uniforms in [0, 1)².
     #[inline]
     pub fn next_2d(&mut self) -> Vec2 {
@@ -94,28 +99,52 @@ pub fn square_to_uniform_triangle(u: Vec2) -> Vec2 {
     Vec2::new(b1, 1.0 - b0 - b1)
 }
 
-/// A discrete distribution over non-negative weights, sampled by inverting its CDF.
+/// A discrete distribution over non-negative weights, sampled in O(1) with Walker's alias method
+/// (Vose 1991, "A linear algorithm for generating random numbers with a given distribution"):
+/// a 32-bit uniform picks one of n equal buckets, a second uniform keeps the bucket's own index
+/// with probability `keep[i]` or takes its alias.
 #[derive(Clone, Debug, Default)]
 pub struct Discrete {
-    cdf: Vec<f32>,
+    keep: Vec<f32>,
+    alias: Vec<u32>,
+    pmf: Vec<f64>,
     total: f64,
 }
 
 impl Discrete {
     /// From weights; `None` if they are empty, negative, non-finite or sum to zero.
     pub fn new(weights: &[f64]) -> Option<Self> {
-        let mut acc = 0.0f64;
-        let mut cdf = Vec::with_capacity(weights.len());
-        for &w in weights {
-            if !(w >= 0.0) || !w.is_finite() {
-                return None;
-            }
-            acc += w;
-            cdf.push(acc);
+        if weights.iter().any(|w| !(*w >= 0.0) || !w.is_finite())
+            || weights.len() > u32::MAX as usize
+        {
+            return None;
         }
-        (acc > 0.0).then(|| Self {
-            cdf: cdf.iter().map(|c| (c / acc) as f32).collect(),
-            total: acc,
+        let total: f64 = weights.iter().sum();
+        if !(total > 0.0) {
+            return None;
+        }
+        let n = weights.len();
+        let pmf: Vec<f64> = weights.iter().map(|w| w / total).collect();
+        // Scaled so that the mean bucket holds 1; split into under- and over-full buckets.
+        let mut scaled: Vec<f64> = pmf.iter().map(|p| p * n as f64).collect();
+        let (mut small, mut large): (Vec<usize>, Vec<usize>) =
+            (0..n).partition(|&i| scaled[i] < 1.0);
+        let mut keep = vec![1.0f32; n];
+        let mut alias: Vec<u32> = (0..n as u32).collect();
+        while let (Some(s), Some(&l)) = (small.pop(), large.last()) {
+            keep[s] = scaled[s] as f32;
+            alias[s] = l as u32;
+            scaled[l] -= 1.0 - scaled[s];
+            if scaled[l] < 1.0 {
+                large.pop();
+                small.push(l);
+            }
+        }
+        Some(Self {
+            keep,
+            alias,
+            pmf,
+            total,
         })
     }
     /// Sum of the weights.
@@ -123,23 +152,17 @@ impl Discrete {
         self.total
     }
     /// Probability of index `i`.
-    pub fn pmf(&self, i: usize) -> f32 {
-        self.cdf[i] - if i == 0 { 0.0 } else { self.cdf[i - 1] }
+    pub fn pmf(&self, i: usize) -> f64 {
+        self.pmf[i]
     }
-    /// Sample an index with `u ∈ [0, 1)` and return it with `u` rescaled to [0, 1) for reuse
-    /// (Mitsuba's `sample_reuse`).
-    pub fn sample_reuse(&self, u: f32) -> (usize, f32) {
-        let i = self
-            .cdf
-            .partition_point(|&c| c <= u)
-            .min(self.cdf.len() - 1);
-        let lo = if i == 0 { 0.0 } else { self.cdf[i - 1] };
-        let p = self.cdf[i] - lo;
-        let r = if p > 0.0 {
-            ((u - lo) / p).clamp(0.0, 1.0 - f32::EPSILON / 2.0)
+    /// An index drawn with probability [`Discrete::pmf`].
+    #[inline]
+    pub fn sample(&self, rng: &mut Sampler) -> usize {
+        let bucket = ((rng.next_u32() as u64 * self.keep.len() as u64) >> 32) as usize;
+        if rng.next_1d() < self.keep[bucket] {
+            bucket
         } else {
-            0.0
-        };
-        (i, r)
+            self.alias[bucket] as usize
+        }
     }
 }

@@ -92,7 +92,7 @@ fn hidden_geometry_sampling_is_uniform_by_area() {
     let mut counts = vec![0.0f64; 2 * res * res];
     let mut rng = Sampler::new(0, 0, 0);
     for _ in 0..n {
-        let it = hg.sample(&scene, rng.next_1d(), rng.next_2d());
+        let it = hg.sample(&scene, &mut rng);
         let (k, c, half) = if it.p.z < 1.0 {
             (0, [0.3, 0.2], 0.2)
         } else {

@@ -29,6 +29,8 @@ pub struct NlosTracer<'a> {
     laser: &'a Projector,
     /// Each shape's BSDF.
     bsdfs: Vec<Bsdf<Spectrum>>,
+    /// Per shape: (every BSDF component is a delta, some component is), computed once.
+    delta: Vec<(bool, bool)>,
     /// Laser irradiance (× scale).
     irradiance: Spectrum,
     /// Scan points and laser spots.
@@ -70,6 +72,11 @@ impl<'a> NlosTracer<'a> {
             scene,
             settings,
             laser: &nlos.laser,
+            delta: scene
+                .shape_bsdfs(mono)
+                .iter()
+                .map(|b| (b.is_delta(), b.has_delta()))
+                .collect(),
             bsdfs: scene.shape_bsdfs(mono),
             irradiance: nlos.laser.irradiance.spectrum(mono),
             capture: Capture::new(scene, mono, cancel)?,
@@ -161,7 +168,7 @@ impl<'a> NlosTracer<'a> {
         wi: Vec3A,
         rng: &mut Sampler,
     ) -> Option<Step> {
-        let y = hg.sample(self.scene, rng.next_1d(), rng.next_2d());
+        let y = hg.sample(self.scene, rng);
         let v = y.p - x.p;
         let r2 = v.length_squared();
         let r = r2.sqrt();
@@ -275,8 +282,7 @@ impl Tracer for NlosTracer<'_> {
             // A delta (mirror-like) BSDF cannot be connected to: no emitter sampling at an
             // all-delta vertex, and where some component is delta the path goes on by sampling the
             // BSDF rather than towards hidden geometry (which would miss that component).
-            let bsdf = self.bsdf(&it);
-            let (all_delta, some_delta) = (bsdf.is_delta(), bsdf.has_delta());
+            let (all_delta, some_delta) = self.delta[it.shape as usize];
             // ---- Emitter sampling
             if st.keep(depth + offset) && !all_delta {
                 self.emitter_sampling(pixel, &Vertex::new(it, wi, beta, opl, eta), out);

@@ -147,7 +147,7 @@ impl<'a> PathTracer<'a> {
                 radiance,
                 falloff,
             } => {
-                let y = sampler.sample(self.scene, rng.next_1d(), rng.next_2d());
+                let y = sampler.sample(self.scene, rng);
                 let w = (x.p - y.p).normalize();
                 if y.ns.dot(w) <= 0.0 {
                     return; // the back of a one-sided area light

@@ -5,10 +5,10 @@
 use super::Scene;
 use crate::geometry::{Interaction, Prim};
 use crate::sampling::{
-    Discrete, square_to_uniform_disk_concentric, square_to_uniform_sphere,
+    Discrete, Sampler, square_to_uniform_disk_concentric, square_to_uniform_sphere,
     square_to_uniform_triangle,
 };
-use glam::{Vec2, Vec3A};
+use glam::Vec3A;
 
 /// Uniform area sampling over a set of primitives: p_A = 1 / A_total.
 pub struct AreaSampler {
@@ -37,9 +37,9 @@ impl AreaSampler {
     }
 
     /// A uniformly distributed point on the hidden geometry (density 1/A_total in area).
-    pub fn sample(&self, scene: &Scene, u1: f32, u2: Vec2) -> Interaction {
-        let (k, _) = self.dist.sample_reuse(u1);
-        let i = self.prims[k] as usize;
+    pub fn sample(&self, scene: &Scene, rng: &mut Sampler) -> Interaction {
+        let i = self.prims[self.dist.sample(rng)] as usize;
+        let u2 = rng.next_2d();
         let (p, ng, b) = match scene.prims[i] {
             Prim::Triangle(v) => {
                 let b = square_to_uniform_triangle(u2);
