@@ -230,10 +230,12 @@ def test_tal_generated_scene_matches_mitransient(peer, tmp_path, name):
     theirs = np.array([_tal_render_mitransient(peer, path, c, spp, k) for k in range(REPS)])
     assert ours.shape == theirs.shape, (ours.shape, theirs.shape)
     res = agreement(_features(ours), _features(theirs))
-    ratio = np.abs(ours).sum() / np.abs(theirs).sum()  # phasors are signed
-    print(f"\n{name}: {res}, total |.| ratio {ratio:.4f}")
+    print(f"\n{name}: {res}, total ratio {ours.sum() / theirs.sum():.4f}")
     assert np.abs(theirs).sum() > 0 and res["agree"], res
-    assert abs(ratio - 1) < 0.05
+    if overrides.get("histogram_mode") != "frequency":
+        # Phasors are signed: their totals are compared by the replicate statistics above only
+        # (a ratio of sums of |noisy values| is not an estimate of anything).
+        assert abs(ours.sum() / theirs.sum() - 1) < 0.05
 
 
 # ---- 5 (twosided), 6. A perspective camera as the NLOS sensor: mitransient's own example files
