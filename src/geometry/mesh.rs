@@ -99,6 +99,51 @@ fn check_ply_header(path: &Path, bytes: &[u8]) -> Result<()> {
     Ok(())
 }
 
+/// Check every face/line/point index of an OBJ before tobj sees it (tobj's index arithmetic can
+/// overflow on huge or out-of-range indices): each `v/vt/vn` index must be a non-zero integer
+/// referring to an element of that kind in the file (negative: counted back from the current one).
+fn check_obj_indices(path: &Path, bytes: &[u8]) -> Result<()> {
+    let text = String::from_utf8_lossy(bytes);
+    let mut total = [0i64; 3];
+    for line in text.lines() {
+        match line.split_whitespace().next() {
+            Some("v") => total[0] += 1,
+            Some("vt") => total[1] += 1,
+            Some("vn") => total[2] += 1,
+            _ => {}
+        }
+    }
+    let mut seen = [0i64; 3];
+    for (n, line) in text.lines().enumerate() {
+        let mut words = line.split_whitespace();
+        match words.next() {
+            Some("v") => seen[0] += 1,
+            Some("vt") => seen[1] += 1,
+            Some("vn") => seen[2] += 1,
+            Some("f" | "l" | "p") => {
+                for token in words {
+                    for (kind, part) in token.split('/').enumerate().take(3) {
+                        if part.is_empty() {
+                            continue;
+                        }
+                        let ok = part.parse::<i64>().is_ok_and(|i| {
+                            (i > 0 && i <= total[kind]) || (i < 0 && -i <= seen[kind])
+                        });
+                        if !ok {
+                            return Err(mesh_err(
+                                path,
+                                format!("line {}: index '{part}' refers to no element", n + 1),
+                            ));
+                        }
+                    }
+                }
+            }
+            _ => {}
+        }
+    }
+    Ok(())
+}
+
 fn mesh_err(path: &Path, msg: impl Into<String>) -> NlosError {
     NlosError::Mesh {
         path: path.to_path_buf(),
@@ -146,6 +191,7 @@ impl Mesh {
 
     /// Parse OBJ text (`path` names it in errors); `mtllib` files are never opened.
     pub fn parse_obj(bytes: &[u8], path: &Path) -> Result<Self> {
+        check_obj_indices(path, bytes)?;
         let opts = tobj::LoadOptions {
             single_index: true,
             triangulate: true,

@@ -166,6 +166,17 @@ nlos_rs.render(d, progress=False)
 """, *words)
 
 
+def test_obj_with_out_of_range_indices(tmp_path):
+    """Found by the obj fuzz target: tobj's index arithmetic overflowed on such faces."""
+    path = tmp_path / "bad.obj"
+    path.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nf 1/-2 2/-999999999999999999 3\n")
+    expect_scene_error(f"""
+d = nlos_rs.scenes.z_nlos_1corner(width=2, height=2, spp=1)
+d["z"]["filename"] = {str(path)!r}
+nlos_rs.load_dict(d)
+""", "index")
+
+
 def test_obj_with_huge_coordinates(tmp_path):
     path = tmp_path / "big.obj"
     path.write_text("v 0 0 0\nv 1e20 0 0\nv 0 1e20 0\nf 1 2 3\n")
