@@ -74,12 +74,7 @@ impl Conductor<Spectrum> {
         if cos_i <= 0.0 {
             return None;
         }
-        Some(BsdfSample {
-            wo: 2.0 * cos_i * ns - wi,
-            weight: fresnel::conductor(cos_i, self.eta, self.k) * self.specular_reflectance,
-            pdf: 1.0,
-            delta: true,
-            eta: 1.0,
-        })
+        let weight = fresnel::conductor(cos_i, self.eta, self.k) * self.specular_reflectance;
+        Some(BsdfSample::mirror(ns, wi, cos_i, weight, 1.0))
     }
 }

@@ -60,13 +60,7 @@ impl Dielectric<Spectrum> {
         let cos_i = ns.dot(wi);
         let (r, cos_t, eta_it, eta_ti) = fresnel::dielectric(cos_i, self.eta);
         Some(if rng.next_1d() <= r {
-            BsdfSample {
-                wo: 2.0 * cos_i * ns - wi,
-                weight: self.specular_reflectance,
-                pdf: r,
-                delta: true,
-                eta: 1.0,
-            }
+            BsdfSample::mirror(ns, wi, cos_i, self.specular_reflectance, r)
         } else {
             BsdfSample {
                 wo: -eta_ti * (wi - cos_i * ns) + cos_t * ns,

@@ -88,6 +88,20 @@ pub struct BsdfSample {
     pub eta: f32,
 }
 
+impl BsdfSample {
+    /// Mirror reflection of `wi` about `ns` (`cos_i = ns·wi`), chosen with probability `pdf`.
+    #[inline]
+    pub fn mirror(ns: Vec3A, wi: Vec3A, cos_i: f32, weight: Spectrum, pdf: f32) -> Self {
+        Self {
+            wo: 2.0 * cos_i * ns - wi,
+            weight,
+            pdf,
+            delta: true,
+            eta: 1.0,
+        }
+    }
+}
+
 /// A smooth BSDF defined in its local shading frame (z = shading normal, one-sided), with a
 /// proposal of outgoing directions; the world-space evaluation, density and sampling follow.
 pub(crate) trait LocalBsdf {

@@ -95,13 +95,8 @@ impl Plastic<Spectrum> {
         let f_i = fresnel::dielectric(ci, self.eta).0;
         let ps = self.prob_specular(f_i);
         if rng.next_1d() < ps {
-            return Some(BsdfSample {
-                wo: 2.0 * ci * ns - wi,
-                weight: self.specular_reflectance * (f_i / ps),
-                pdf: ps,
-                delta: true,
-                eta: 1.0,
-            });
+            let weight = self.specular_reflectance * (f_i / ps);
+            return Some(BsdfSample::mirror(ns, wi, ci, weight, ps));
         }
         let local = square_to_cosine_hemisphere(rng.next_2d());
         let pdf = (1.0 - ps) * local.z * FRAC_1_PI;

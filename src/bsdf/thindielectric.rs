@@ -26,13 +26,7 @@ impl ThinDielectric<Spectrum> {
         let r = fresnel::dielectric(cos_i.abs(), d.eta).0;
         let r = r * 2.0 / (1.0 + r);
         Some(if rng.next_1d() <= r {
-            BsdfSample {
-                wo: 2.0 * cos_i * ns - wi,
-                weight: d.specular_reflectance,
-                pdf: r,
-                delta: true,
-                eta: 1.0,
-            }
+            BsdfSample::mirror(ns, wi, cos_i, d.specular_reflectance, r)
         } else {
             BsdfSample {
                 wo: -wi,

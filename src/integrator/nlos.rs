@@ -68,16 +68,16 @@ impl<'a> NlosTracer<'a> {
         } else {
             None
         };
+        let bsdfs = scene.shape_bsdfs(mono);
         Ok(Self {
             scene,
             settings,
             laser: &nlos.laser,
-            delta: scene
-                .shape_bsdfs(mono)
+            delta: bsdfs
                 .iter()
                 .map(|b| (b.is_delta(), b.has_delta()))
                 .collect(),
-            bsdfs: scene.shape_bsdfs(mono),
+            bsdfs,
             irradiance: nlos.laser.irradiance.spectrum(mono),
             capture: Capture::new(scene, mono, cancel)?,
             camera: nlos.camera.as_ref(),

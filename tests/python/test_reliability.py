@@ -46,6 +46,15 @@ except nlos_rs.SceneError as e:
     return out
 
 
+def expect_edited_z_error(edit: str, *words: str, then: str = "nlos_rs.load_dict(d)") -> str:
+    """The 2×2 built-in Z with `edit` applied to its dict `d`; `then` must raise a SceneError with `words`."""
+    return expect_scene_error(f"""
+d = nlos_rs.scenes.z_nlos_1corner(width=2, height=2, spp=1)
+{edit}
+{then}
+""", *words)
+
+
 # ---- The process died
 
 
@@ -159,32 +168,20 @@ print("forked ok")
     ("d['z']['to_world'] = [[1e30, 0, 0, 0], [0, 1e30, 0, 0], [0, 0, 1, 1], [0, 0, 0, 1]]", ["obj", "to_world"]),
 ])
 def test_out_of_range_geometry_gets_an_error(edit, words):
-    expect_scene_error(f"""
-d = nlos_rs.scenes.z_nlos_1corner(width=2, height=2, spp=1)
-{edit}
-nlos_rs.render(d, progress=False)
-""", *words)
+    expect_edited_z_error(edit, *words, then="nlos_rs.render(d, progress=False)")
 
 
 def test_obj_with_out_of_range_indices(tmp_path):
     """Found by the obj fuzz target: tobj's index arithmetic overflowed on such faces."""
     path = tmp_path / "bad.obj"
     path.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nf 1/-2 2/-999999999999999999 3\n")
-    expect_scene_error(f"""
-d = nlos_rs.scenes.z_nlos_1corner(width=2, height=2, spp=1)
-d["z"]["filename"] = {str(path)!r}
-nlos_rs.load_dict(d)
-""", "index")
+    expect_edited_z_error(f'd["z"]["filename"] = {str(path)!r}', "index")
 
 
 def test_obj_with_huge_coordinates(tmp_path):
     path = tmp_path / "big.obj"
     path.write_text("v 0 0 0\nv 1e20 0 0\nv 0 1e20 0\nf 1 2 3\n")
-    expect_scene_error(f"""
-d = nlos_rs.scenes.z_nlos_1corner(width=2, height=2, spp=1)
-d["z"]["filename"] = {str(path)!r}
-nlos_rs.load_dict(d)
-""", "obj", "coordinates")
+    expect_edited_z_error(f'd["z"]["filename"] = {str(path)!r}', "obj", "coordinates")
 
 
 # ---- Hangs
@@ -300,11 +297,7 @@ def test_threads_are_capped():
     ("d['z']['bsdf']['reflectance'] = 50.0", ["diffuse", "reflectance"]),
 ])
 def test_out_of_range_values_are_refused(edit, words):
-    expect_scene_error(f"""
-d = nlos_rs.scenes.z_nlos_1corner(width=2, height=2, spp=1)
-{edit}
-nlos_rs.load_dict(d)
-""", *words)
+    expect_edited_z_error(edit, *words)
 
 
 def test_laser_power_beyond_single_precision_is_refused():
