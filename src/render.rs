@@ -1,7 +1,8 @@
 //! The render loop: every pixel's samples in parallel (rayon), traced by the scene's
 //! [`Tracer`] and accumulated into the transient film through its splatter (mitransient-model
-//! §3.8). Each pixel is rendered by one task from per-(seed, pixel, block) random streams, so
-//! results are bit-identical whatever the thread count. Progress and cancellation go through
+//! §3.8). Each pixel is rendered by one task from per-(seed, pixel, block) random streams (a film
+//! of few pixels splits a pixel's blocks into chunks, summed in chunk order), so results are
+//! bit-identical whatever the thread count. Progress and cancellation go through
 //! atomics so that a caller (the Python binding) can poll them; cancellation is checked after
 //! every sample. Work runs on a thread pool made for the render (never rayon's global pool, so a
 //! forked process can render too), and the output's size is checked before it is allocated.
@@ -154,6 +155,22 @@ fn output_shape(film: &Film, c: usize) -> Vec<usize> {
     }
 }
 
+/// Fewest parallel tasks a render is split into: a film with fewer pixels splits each pixel's
+/// samples into chunks of whole blocks, so that a 1×1 or 4×4 capture uses every core.
+const MIN_TASKS: u64 = 64;
+/// Largest memory (bytes) the per-chunk buffers of a split render may take.
+const CHUNK_MEMORY: u64 = 256 << 20;
+
+/// Chunks each pixel's `spp` samples are split into. It depends on the capture only, never on the
+/// thread count, so results stay bit-identical whatever the threads: one chunk (the whole pixel in
+/// one task, in sample order) for films of [`MIN_TASKS`] pixels or more; otherwise enough chunks of
+/// whole [`BLOCK`]s for [`MIN_TASKS`] tasks, within [`CHUNK_MEMORY`].
+fn chunks_per_pixel(npix: u64, spp: u64, pixel_bytes: u64) -> u64 {
+    let blocks = spp.div_ceil(BLOCK);
+    let by_memory = (CHUNK_MEMORY / (npix * pixel_bytes).max(1)).max(1);
+    MIN_TASKS.div_ceil(npix).min(blocks).min(by_memory).max(1)
+}
+
 /// The loop over pixels and sample blocks, for one tracer.
 fn run(
     tracer: &impl Tracer,
@@ -173,59 +190,100 @@ fn run(
     let mut steady = vec![0.0f32; npix * c];
     let inv_spp = 1.0 / spp as f64;
 
-    let mut work = || {
+    // Samples [first, end) of `pixel`, accumulated into its transient `buf` and steady `sum`.
+    let trace = |pixel: usize, first: u64, end: u64, buf: &mut [f32], sum: &mut [f64; 3]| {
+        let mut splat = |s: Splat| {
+            // Nothing non-finite reaches the film (an overflowing product of extreme
+            // but valid parameters is dropped, not spread as Inf or NaN).
+            if !s.value.is_finite() || !s.opl.is_finite() {
+                return;
+            }
+            for (k, acc) in sum.iter_mut().enumerate().take(c) {
+                *acc += s.value[k] as f64;
+            }
+            let slot = &mut buf[s.slot * slot_len..(s.slot + 1) * slot_len];
+            match &film.phasor {
+                Some(ph) => ph.put(s.opl - film.start_opl, s.value[0], slot),
+                None => splatter.splat(s.opl, |bin, w| {
+                    for k in 0..c {
+                        slot[bin * c + k] += s.value[k] * w;
+                    }
+                }),
+            }
+        };
+        let mut start = first;
+        while start < end {
+            if monitor.cancel.load(Ordering::Relaxed) {
+                return Err(NlosError::Interrupted);
+            }
+            let n = BLOCK.min(end - start);
+            let mut rng = Sampler::new(seed, pixel as u64, start / BLOCK);
+            for _ in 0..n {
+                tracer.trace(pixel, &mut rng, &mut splat);
+                if monitor.cancel.load(Ordering::Relaxed) {
+                    return Err(NlosError::Interrupted);
+                }
+            }
+            monitor.done.fetch_add(n, Ordering::Relaxed);
+            start += n;
+        }
+        Ok(())
+    };
+    // Normalise by the sample count; exhaustive steady images average the laser points.
+    let normalise = |buf: &mut [f32], sum: &[f64; 3], st: &mut [f32]| {
+        for v in buf.iter_mut() {
+            *v = (*v as f64 * inv_spp) as f32;
+        }
+        for k in 0..c {
+            st[k] = (sum[k] * inv_spp / slots as f64) as f32;
+        }
+    };
+
+    let chunks = chunks_per_pixel(npix as u64, spp, (pixel_len * 4) as u64);
+    if chunks == 1 {
         transient
             .par_chunks_mut(pixel_len)
             .zip(steady.par_chunks_mut(c))
             .enumerate()
             .try_for_each(|(pixel, (buf, st))| {
                 let mut sum = [0.0f64; 3];
-                let mut splat = |s: Splat| {
-                    // Nothing non-finite reaches the film (an overflowing product of extreme
-                    // but valid parameters is dropped, not spread as Inf or NaN).
-                    if !s.value.is_finite() || !s.opl.is_finite() {
-                        return;
-                    }
-                    for (k, acc) in sum.iter_mut().enumerate().take(c) {
-                        *acc += s.value[k] as f64;
-                    }
-                    let slot = &mut buf[s.slot * slot_len..(s.slot + 1) * slot_len];
-                    match &film.phasor {
-                        Some(ph) => ph.put(s.opl - film.start_opl, s.value[0], slot),
-                        None => splatter.splat(s.opl, |bin, w| {
-                            for k in 0..c {
-                                slot[bin * c + k] += s.value[k] * w;
-                            }
-                        }),
-                    }
-                };
-                let mut start = 0;
-                while start < spp {
-                    if monitor.cancel.load(Ordering::Relaxed) {
-                        return Err(NlosError::Interrupted);
-                    }
-                    let n = BLOCK.min(spp - start);
-                    let mut rng = Sampler::new(seed, pixel as u64, start / BLOCK);
-                    for _ in 0..n {
-                        tracer.trace(pixel, &mut rng, &mut splat);
-                        if monitor.cancel.load(Ordering::Relaxed) {
-                            return Err(NlosError::Interrupted);
-                        }
-                    }
-                    monitor.done.fetch_add(n, Ordering::Relaxed);
-                    start += n;
-                }
-                // Normalise by the sample count; exhaustive steady images average the laser points.
-                for v in buf.iter_mut() {
-                    *v = (*v as f64 * inv_spp) as f32;
-                }
-                for k in 0..c {
-                    st[k] = (sum[k] * inv_spp / slots as f64) as f32;
-                }
+                trace(pixel, 0, spp, buf, &mut sum)?;
+                normalise(buf, &sum, st);
                 Ok(())
+            })?;
+    } else {
+        // Each chunk (whole blocks) into a buffer of its own, then the chunks summed in order.
+        let per_chunk = spp.div_ceil(BLOCK).div_ceil(chunks) * BLOCK;
+        let parts = (0..npix as u64 * chunks)
+            .into_par_iter()
+            .map(|task| {
+                let (pixel, chunk) = ((task / chunks) as usize, task % chunks);
+                let first = (chunk * per_chunk).min(spp);
+                let mut buf = vec![0.0f32; pixel_len];
+                let mut sum = [0.0f64; 3];
+                trace(
+                    pixel,
+                    first,
+                    (first + per_chunk).min(spp),
+                    &mut buf,
+                    &mut sum,
+                )?;
+                Ok((buf, sum))
             })
-    };
-    work()?;
+            .collect::<Result<Vec<_>>>()?;
+        for ((buf, st), pixel_parts) in transient
+            .chunks_mut(pixel_len)
+            .zip(steady.chunks_mut(c))
+            .zip(parts.chunks(chunks as usize))
+        {
+            let mut sum = [0.0f64; 3];
+            for (part, part_sum) in pixel_parts {
+                buf.iter_mut().zip(part).for_each(|(a, b)| *a += b);
+                sum.iter_mut().zip(part_sum).for_each(|(a, b)| *a += b);
+            }
+            normalise(buf, &sum, st);
+        }
+    }
     Ok(Rendered {
         steady,
         steady_shape: vec![film.height, film.width, c],

@@ -105,8 +105,8 @@ pub fn square_to_uniform_triangle(u: Vec2) -> Vec2 {
 /// with probability `keep[i]` or takes its alias.
 #[derive(Clone, Debug, Default)]
 pub struct Discrete {
-    keep: Vec<f32>,
-    alias: Vec<u32>,
+    /// Per bucket: the probability of keeping its own index, and its alias (one cache line).
+    buckets: Vec<(f32, u32)>,
     pmf: Vec<f64>,
     total: f64,
 }
@@ -141,8 +141,7 @@ impl Discrete {
             }
         }
         Some(Self {
-            keep,
-            alias,
+            buckets: keep.into_iter().zip(alias).collect(),
             pmf,
             total,
         })
@@ -158,11 +157,12 @@ impl Discrete {
     /// An index drawn with probability [`Discrete::pmf`].
     #[inline]
     pub fn sample(&self, rng: &mut Sampler) -> usize {
-        let bucket = ((rng.next_u32() as u64 * self.keep.len() as u64) >> 32) as usize;
-        if rng.next_1d() < self.keep[bucket] {
+        let bucket = ((rng.next_u32() as u64 * self.buckets.len() as u64) >> 32) as usize;
+        let (keep, alias) = self.buckets[bucket];
+        if rng.next_1d() < keep {
             bucket
         } else {
-            self.alias[bucket] as usize
+            alias as usize
         }
     }
 }

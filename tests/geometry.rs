@@ -38,7 +38,7 @@ fn closed_sphere(n_lat: usize, n_lon: usize, jitter: f32, rng: &mut Sampler) -> 
         }
     }
     tris.into_iter()
-        .map(|t| Prim::Triangle(t.map(|k| v[k])))
+        .map(|t| Prim::triangle(t.map(|k| v[k])))
         .collect()
 }
 
@@ -62,7 +62,7 @@ fn watertight_from_inside() {
             Vec3A::new(a.cos(), 0.0, a.sin())
         }));
         for p in &prims {
-            if let Prim::Triangle(t) = p {
+            if let Prim::Triangle { v: t, .. } = p {
                 dirs.push(t[0].normalize());
             }
         }
@@ -117,7 +117,7 @@ fn matches_brute_force() {
     let mut prims: Vec<Prim> = (0..400)
         .map(|_| {
             let c = r3();
-            Prim::Triangle([c, c + r3() * 0.2, c + r3() * 0.2])
+            Prim::triangle([c, c + r3() * 0.2, c + r3() * 0.2])
         })
         .collect();
     prims.push(Prim::Sphere {

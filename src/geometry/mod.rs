@@ -5,13 +5,22 @@ pub mod bvh;
 pub mod mesh;
 
 use crate::math::{RAY_EPS, SHADOW_EPS};
-use glam::{Affine3A, Vec3A};
+use crate::sampling::{
+    square_to_uniform_disk_concentric, square_to_uniform_sphere, square_to_uniform_triangle,
+};
+use glam::{Affine3A, Vec2, Vec3A};
 
 /// A ray-traceable primitive in world space.
 #[derive(Clone, Copy, Debug)]
 pub enum Prim {
-    /// Triangle; counter-clockwise winding gives the geometric normal.
-    Triangle([Vec3A; 3]),
+    /// Triangle; counter-clockwise winding gives the geometric normal `n`, computed once by
+    /// [`Prim::triangle`] (hits and area samples read it instead of normalising a cross product).
+    Triangle {
+        /// Vertices.
+        v: [Vec3A; 3],
+        /// Unit geometric normal.
+        n: Vec3A,
+    },
     /// Sphere (`flip` turns the normal inwards).
     Sphere {
         /// Centre.
@@ -130,12 +139,46 @@ pub fn intersect_triangle(
 }
 
 impl Prim {
+    /// The triangle with vertices `v`.
+    pub fn triangle(v: [Vec3A; 3]) -> Self {
+        Prim::Triangle {
+            v,
+            n: (v[1] - v[0]).cross(v[2] - v[0]).normalize(),
+        }
+    }
+
+    /// A uniformly distributed point on the primitive from `u` ∈ [0, 1)²: position, geometric
+    /// normal and barycentrics (triangles; zero otherwise).
+    #[inline]
+    pub fn sample_area(&self, u: Vec2) -> (Vec3A, Vec3A, [f32; 2]) {
+        match self {
+            Prim::Triangle { v, n } => {
+                let b = square_to_uniform_triangle(u);
+                let p = v[0] * (1.0 - b.x - b.y) + v[1] * b.x + v[2] * b.y;
+                (p, *n, b.to_array())
+            }
+            Prim::Sphere { center, radius } => {
+                let n = square_to_uniform_sphere(u);
+                (*center + n * *radius, n, [0.0; 2])
+            }
+            Prim::Disk { inv } => {
+                let q = square_to_uniform_disk_concentric(u);
+                let p = inv.inverse().transform_point3a(Vec3A::new(q.x, q.y, 0.0));
+                (
+                    p,
+                    inv.matrix3.transpose().mul_vec3a(Vec3A::Z).normalize(),
+                    [0.0; 2],
+                )
+            }
+        }
+    }
+
     /// Distance to the nearest hit in `(tmin, tmax)` along a unit-direction ray, with barycentrics.
     #[inline]
     pub fn intersect(&self, o: Vec3A, d: Vec3A, tmin: f32, tmax: f32) -> Option<(f32, [f32; 2])> {
         match self {
-            Prim::Triangle(p) => {
-                intersect_triangle(o, d, tmin, tmax, p).map(|(t, b1, b2)| (t, [b1, b2]))
+            Prim::Triangle { v, .. } => {
+                intersect_triangle(o, d, tmin, tmax, v).map(|(t, b1, b2)| (t, [b1, b2]))
             }
             Prim::Sphere { center, radius } => {
                 // Solve |o + t d - c|² = r² in double precision (d is unit length).
@@ -170,7 +213,7 @@ impl Prim {
     /// Axis-aligned bounds.
     pub fn bounds(&self) -> (Vec3A, Vec3A) {
         match self {
-            Prim::Triangle(p) => (p[0].min(p[1]).min(p[2]), p[0].max(p[1]).max(p[2])),
+            Prim::Triangle { v: p, .. } => (p[0].min(p[1]).min(p[2]), p[0].max(p[1]).max(p[2])),
             Prim::Sphere { center, radius } => (*center - *radius, *center + *radius),
             Prim::Disk { inv } => {
                 let m = inv.inverse();
@@ -186,7 +229,7 @@ impl Prim {
     /// Surface area.
     pub fn area(&self) -> f32 {
         match self {
-            Prim::Triangle(p) => 0.5 * (p[1] - p[0]).cross(p[2] - p[0]).length(),
+            Prim::Triangle { v: p, .. } => 0.5 * (p[1] - p[0]).cross(p[2] - p[0]).length(),
             Prim::Sphere { radius, .. } => 4.0 * std::f32::consts::PI * radius * radius,
             Prim::Disk { inv } => {
                 let m = inv.inverse().matrix3;
@@ -198,10 +241,10 @@ impl Prim {
     /// Position and geometric normal at a hit (`flip` reverses the normal).
     pub fn surface(&self, o: Vec3A, d: Vec3A, hit: &Hit) -> (Vec3A, Vec3A) {
         match self {
-            Prim::Triangle(p) => {
+            Prim::Triangle { v: p, n } => {
                 let [b1, b2] = hit.b;
                 let pos = p[0] * (1.0 - b1 - b2) + p[1] * b1 + p[2] * b2;
-                (pos, (p[1] - p[0]).cross(p[2] - p[0]).normalize())
+                (pos, *n)
             }
             Prim::Sphere { center, .. } => {
                 let pos = o + d * hit.t;

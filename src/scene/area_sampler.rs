@@ -4,30 +4,68 @@
 
 use super::Scene;
 use crate::geometry::{Interaction, Prim};
-use crate::sampling::{
-    Discrete, Sampler, square_to_uniform_disk_concentric, square_to_uniform_sphere,
-    square_to_uniform_triangle,
-};
+use crate::sampling::{Discrete, Sampler, square_to_uniform_triangle};
 use glam::Vec3A;
+
+/// One primitive as a draw needs it, in one 64-byte cache line, so that a draw from a large mesh
+/// touches two lines (the alias-table bucket and this entry) instead of five arrays of the scene.
+/// A flat triangle is drawn from here: its vertices and flipped unit normal, with the scene index,
+/// shape and `flip_normals` sign in the spare fourth lanes. Anything else (a sphere, a disk, a
+/// triangle with vertex normals) is marked and drawn through the scene.
+#[repr(C, align(64))]
+struct Entry {
+    /// Vertex 0 and the primitive's scene index (bits).
+    v0: [f32; 4],
+    /// Vertex 1 and its shape (bits).
+    v1: [f32; 4],
+    /// Vertex 2 and the normal's sign: -1 with `flip_normals`, else 1.
+    v2: [f32; 4],
+    /// Unit geometric normal (unflipped) and 1.0 for a flat triangle, 0.0 otherwise.
+    n: [f32; 4],
+}
+
+impl Entry {
+    fn new(scene: &Scene, i: usize) -> Self {
+        let shape = scene.prim_shape[i];
+        let sign = if scene.shape_flip[shape as usize] {
+            -1.0
+        } else {
+            1.0
+        };
+        let lane = |v: Vec3A, w: f32| [v.x, v.y, v.z, w];
+        let (v, n, flat) = match scene.prims[i] {
+            Prim::Triangle { v, n } => (v, n, scene.prim_normals[i].is_none()),
+            _ => ([Vec3A::ZERO; 3], Vec3A::ZERO, false),
+        };
+        Self {
+            v0: lane(v[0], f32::from_bits(i as u32)),
+            v1: lane(v[1], f32::from_bits(shape)),
+            v2: lane(v[2], sign),
+            n: lane(n, if flat { 1.0 } else { 0.0 }),
+        }
+    }
+}
 
 /// Uniform area sampling over a set of primitives: p_A = 1 / A_total.
 pub struct AreaSampler {
     dist: Discrete,
-    prims: Vec<u32>,
+    entries: Vec<Entry>,
 }
+
 impl AreaSampler {
     /// Over the primitives of the shapes `keep` accepts; `None` if they have no area.
     pub fn new(scene: &Scene, keep: impl Fn(usize) -> bool) -> Option<Self> {
-        let prims: Vec<u32> = (0..scene.prims.len() as u32)
-            .filter(|&i| keep(scene.prim_shape[i as usize] as usize))
+        let prims: Vec<usize> = (0..scene.prims.len())
+            .filter(|&i| keep(scene.prim_shape[i] as usize))
             .collect();
         let weights: Vec<f64> = prims
             .iter()
-            .map(|&i| scene.prims[i as usize].area() as f64)
+            .map(|&i| scene.prims[i].area() as f64)
             .collect();
+        let entries = prims.iter().map(|&i| Entry::new(scene, i)).collect();
         Some(Self {
             dist: Discrete::new(&weights)?,
-            prims,
+            entries,
         })
     }
 
@@ -37,33 +75,25 @@ impl AreaSampler {
     }
 
     /// A uniformly distributed point on the hidden geometry (density 1/A_total in area).
+    #[inline]
     pub fn sample(&self, scene: &Scene, rng: &mut Sampler) -> Interaction {
-        let i = self.prims[self.dist.sample(rng)] as usize;
-        let u2 = rng.next_2d();
-        let (p, ng, b) = match scene.prims[i] {
-            Prim::Triangle(v) => {
-                let b = square_to_uniform_triangle(u2);
-                let p = v[0] * (1.0 - b.x - b.y) + v[1] * b.x + v[2] * b.y;
-                (
-                    p,
-                    (v[1] - v[0]).cross(v[2] - v[0]).normalize(),
-                    b.to_array(),
-                )
-            }
-            Prim::Sphere { center, radius } => {
-                let n = square_to_uniform_sphere(u2);
-                (center + n * radius, n, [0.0; 2])
-            }
-            Prim::Disk { inv } => {
-                let q = square_to_uniform_disk_concentric(u2);
-                let p = inv.inverse().transform_point3a(Vec3A::new(q.x, q.y, 0.0));
-                (
-                    p,
-                    inv.matrix3.transpose().mul_vec3a(Vec3A::Z).normalize(),
-                    [0.0; 2],
-                )
-            }
-        };
-        scene.surface_point(i, p, ng, b)
+        let e = &self.entries[self.dist.sample(rng)];
+        let u = rng.next_2d();
+        if e.n[3] == 0.0 {
+            let i = e.v0[3].to_bits() as usize;
+            let (p, ng, b) = scene.prims[i].sample_area(u);
+            return scene.surface_point(i, p, ng, b);
+        }
+        // As `Prim::sample_area` and `Scene::surface_point` without vertex normals: ns = ng.
+        let xyz = |a: &[f32; 4]| Vec3A::new(a[0], a[1], a[2]);
+        let b = square_to_uniform_triangle(u);
+        let p = xyz(&e.v0) * (1.0 - b.x - b.y) + xyz(&e.v1) * b.x + xyz(&e.v2) * b.y;
+        let ng = xyz(&e.n) * e.v2[3];
+        Interaction {
+            p,
+            ng,
+            ns: ng,
+            shape: e.v1[3].to_bits(),
+        }
     }
 }

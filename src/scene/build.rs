@@ -107,7 +107,7 @@ impl Geometry {
             if (v[1] - v[0]).cross(v[2] - v[0]).length_squared() == 0.0 {
                 continue;
             }
-            prims.push(Prim::Triangle(v));
+            prims.push(Prim::triangle(v));
             normals.push(
                 m.normals
                     .as_ref()
