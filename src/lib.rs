@@ -16,6 +16,8 @@
 //! * [`capture`]: scan points and laser spots of an NLOS capture.
 //! * [`integrator`]: the [`integrator::Tracer`]s (NLOS, HGRS, line of sight).
 //! * [`render`]: the parallel loop that runs a tracer into a film, on a pool from [`parallel`].
+//! * [`spad`]: what a SPAD records of a rendered transient (calibration, instrument response,
+//!   photon noise, pile-up).
 //!
 //! `python` holds the PyO3 binding, which only converts.
 
@@ -36,6 +38,7 @@ pub mod sampling;
 pub mod scene;
 pub mod sensor;
 pub mod settings;
+pub mod spad;
 pub mod spectrum;
 pub mod xml;
 

@@ -34,6 +34,11 @@ impl Sampler {
     pub fn next_u32(&mut self) -> u32 {
         self.0.next_u32()
     }
+    /// A draw from a `rand_distr` distribution on this stream.
+    #[inline]
+    pub fn sample<T, D: rand_distr::Distribution<T>>(&mut self, d: &D) -> T {
+        d.sample(&mut self.0)
+    }
     /// Two uniforms in [0, 1)².
     #[inline]
     pub fn next_2d(&mut self) -> Vec2 {

@@ -19,7 +19,7 @@ import numpy as np
 
 from . import _core
 from ._core import Scene, SceneError, __version__
-from . import io, metrics, nlos, scenes, transform
+from . import io, metrics, nlos, scenes, sensor, transform
 from .transform import Transform4f
 from .values import normalize
 from .xml import save_xml

@@ -98,6 +98,7 @@ def write_figures(out: Path, steady: np.ndarray, transient: np.ndarray, t0: floa
 def cmd_render(args: argparse.Namespace, scene: "nlos_rs.Scene", out: Path, figures: "Path | None") -> int:
     if args.integrator:
         scene = scene.with_integrator(args.integrator)
+    spad = nlos_rs.sensor.Spad.from_string(args.spad) if getattr(args, "spad", None) is not None else None
     kernel = {"temporal_kernel": ["gaussian", args.kernel_sigma] if args.kernel_sigma else ["epanechnikov", args.kernel_bandwidth]}
     info = kernel if (args.kernel_sigma or args.kernel_bandwidth) else {}
     t = time.perf_counter()
@@ -105,6 +106,10 @@ def cmd_render(args: argparse.Namespace, scene: "nlos_rs.Scene", out: Path, figu
                                        variant=args.variant, kernel_sigma=args.kernel_sigma, kernel_bandwidth=args.kernel_bandwidth)
     seconds = time.perf_counter() - t
     bins, dt, t0 = scene.temporal
+    if spad is not None:
+        # Photon counts as a SPAD records them (docs/sensor.md).
+        transient = nlos_rs.sensor.simulate(scene, transient, spad, seed=args.seed)
+        info["spad"] = spad.params()
     if out.suffix.lower() in (".hdf5", ".h5"):
         nlos_rs.io.write_capture(out, scene, transient, scene_info=info)
     else:
@@ -141,6 +146,8 @@ def main(argv=None) -> int:
     rend = sub.add_parser("render", parents=[common], help="render an XML scene or a built-in scene name")
     rend.add_argument("scene", help=f"Mitsuba XML file or one of: {', '.join(BUILTIN)}")
     rend.add_argument("--out", default="capture.hdf5", help="tal capture (.hdf5) or arrays (.npz); default capture.hdf5")
+    rend.add_argument("--spad", metavar="KEY=VALUE,...", help="write SPAD photon counts instead of the radiometric transient, "
+                      "e.g. exposure_s=8e-3,pile_up=true (parameters of nlos_rs.sensor.Spad; mono only)")
     rend.add_argument("--figures", metavar="DIR", help="also write PNG figures to DIR (its parent must exist)")
     rend.add_argument("-D", dest="define", action="append", default=[], metavar="NAME=VALUE",
                       help="set an XML scene's $NAME parameter (repeatable)")

@@ -42,14 +42,15 @@ def capture_fields(scene: Scene, transient: np.ndarray, zero_t_start: bool = Fal
     t = np.asarray(transient)
     if t.shape[:-1] != expect:
         raise ValueError(f"transient shape {t.shape} does not match the scene (expected {expect + ('C',)})")
-    t = t.sum(-1, dtype=np.float64).astype(np.float32)
+    # Photon counts (nlos_rs.sensor.simulate) stay integers; radiometric values are float32.
+    t = t.sum(-1, dtype=np.int64) if t.dtype.kind in "iu" else t.sum(-1, dtype=np.float64).astype(np.float32)
     # mitransient order (y, x, [ly, lx,] t) -> tal order (t, [lx, ly,] x, y)
     H = np.ascontiguousarray(np.transpose(t, (4, 3, 2, 1, 0) if exhaustive else (2, 1, 0)))
     if zero_t_start and t_start != 0:
         pad = t_start / delta_t
         if abs(pad - round(pad)) > 1e-6 or pad < 0:
             raise ValueError(f"zero_t_start needs start_opl ({t_start}) to be a whole number of bins ({delta_t})")
-        H = np.concatenate([np.zeros((int(round(pad)),) + H.shape[1:], np.float32), H], axis=0)
+        H = np.concatenate([np.zeros((int(round(pad)),) + H.shape[1:], H.dtype), H], axis=0)
         t_start = 0.0
     # Wall points at the scan-pixel centres, [x, y] order.
     grid = np.array([[scene.relay_wall_point((ix + 0.5) / w, (iy + 0.5) / h)[0] for iy in range(h)] for ix in range(w)], np.float32)

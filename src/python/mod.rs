@@ -1,6 +1,8 @@
 //! The PyO3 binding: converts Python values to the core's types and back, releases the GIL while
 //! rendering, forwards progress and Ctrl-C, and maps [`crate::NlosError`]. No physics here.
 
+mod spad;
+
 use crate::error::NlosError;
 use crate::props::{Props, Value};
 use crate::render::{Monitor, RenderOptions, render as core_render, total_samples};
@@ -638,6 +640,10 @@ fn core_module(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(load_dict, m)?)?;
     m.add_function(wrap_pyfunction!(load_file, m)?)?;
     m.add_function(wrap_pyfunction!(render, m)?)?;
+    m.add_function(wrap_pyfunction!(spad::spad_check, m)?)?;
+    m.add_function(wrap_pyfunction!(spad::spad_expected_counts, m)?)?;
+    m.add_function(wrap_pyfunction!(spad::spad_simulate, m)?)?;
+    m.add_function(wrap_pyfunction!(spad::spad_coates, m)?)?;
     m.add_function(wrap_pyfunction!(transform_look_at, m)?)?;
     m.add_function(wrap_pyfunction!(transform_translate, m)?)?;
     m.add_function(wrap_pyfunction!(transform_scale, m)?)?;
