@@ -7,8 +7,11 @@
 //!   detection of each laser period. With N = exposure × f_rep periods and r_i = λ_i / N the mean
 //!   per period in bin i (bins in time order, after r_pre, the background before the window), a
 //!   period's first detection is in bin i with p_i = (1 − e^{−r_i}) e^{−r_pre − Σ_{j<i} r_j}; the
-//!   histogram is drawn as successive binomials over the periods still without a detection. The part
-//!   of a dead time that would reach into the next period is not modelled.
+//!   histogram is drawn as successive binomials over the periods still without a detection.
+//! * **Dead time** with pile-up: a detection also blinds the detector for `dead_time_ns`; where that
+//!   can reach into the next period's window, the capture is drawn event by event instead (a
+//!   geometric wait between detections from an armed period; a blinded period detects only from its
+//!   first open bin on). A dead time longer than the laser period is refused.
 //! * **Afterpulsing**: each detection is followed, with probability `afterpulse_prob`, by another one
 //!   dead time later (which may afterpulse in turn), as in tal's open SPAD pull request (#13).
 //! * **Crosstalk**: each detection triggers, with probability `crosstalk_prob`/4 each, a count in
@@ -19,7 +22,7 @@
 use super::{Layout, Spad};
 use crate::error::Result;
 use crate::sampling::Sampler;
-use rand_distr::{Binomial, Poisson};
+use rand_distr::{Binomial, Geometric, Open01, Poisson};
 use rayon::prelude::*;
 
 /// Stream keys of the detection steps (the render's streams use the pixel index).
@@ -74,6 +77,16 @@ pub fn detect(lam: &[f64], layout: &Layout, spad: &Spad, seed: u64) -> Result<Ve
     } else {
         0
     };
+    // Dead time reaching into the next period: a detection in bin i (at its centre) blinds the next
+    // period until t_i + dead time − period, i.e. its bins before `blind[i]`.
+    let period_ps = 1e12 / spad.rep_rate_hz;
+    let blind: Vec<usize> = (0..bins)
+        .map(|i| {
+            let until = (i as f64 + 0.5) * layout.bin_ps + spad.dead_time_ns * 1e3 - period_ps;
+            (until / layout.bin_ps).ceil().clamp(0.0, bins as f64) as usize
+        })
+        .collect();
+    let spills = blind.iter().any(|&b| b > 0);
     let mut counts = vec![0u64; lam.len()];
     counts
         .par_chunks_mut(bins)
@@ -81,7 +94,9 @@ pub fn detect(lam: &[f64], layout: &Layout, spad: &Spad, seed: u64) -> Result<Ve
         .enumerate()
         .for_each(|(hist, (c, l))| {
             let mut rng = Sampler::new(seed, hist as u64, PRIMARY);
-            if spad.pile_up {
+            if spad.pile_up && spills {
+                first_photons_with_dead_time(c, l, n, r_pre, &blind, &mut rng);
+            } else if spad.pile_up {
                 let mut alive = n - binomial(&mut rng, n, 1.0 - (-r_pre).exp());
                 for (ci, &li) in c.iter_mut().zip(l) {
                     *ci = binomial(&mut rng, alive, 1.0 - (-li / n as f64).exp());
@@ -104,6 +119,60 @@ pub fn detect(lam: &[f64], layout: &Layout, spad: &Spad, seed: u64) -> Result<Ve
         counts = crosstalk(&counts, layout, spad, seed);
     }
     Ok(counts)
+}
+
+/// First-photon counting over `n` periods when a detection can blind the start of the next
+/// period (`blind[i]`: bins lost after a detection in bin i). Event by event: from an armed
+/// period, the wait to the next detection is geometric and its bin follows the first-photon law
+/// (an exponential arrival over the cumulative rates); a blinded period can detect only from its
+/// first open bin on. `r_pre` is the background before the window (a detection there is taken at
+/// the window's start, which cannot blind the window).
+fn first_photons_with_dead_time(
+    c: &mut [u64],
+    lam: &[f64],
+    n: u64,
+    r_pre: f64,
+    blind: &[usize],
+    rng: &mut Sampler,
+) {
+    // cum[k] = r_pre + Σ_{j<k} r_j: the rate up to the start of bin k in an armed period.
+    let mut cum = Vec::with_capacity(lam.len() + 1);
+    cum.push(r_pre);
+    for &l in lam {
+        cum.push(cum[cum.len() - 1] + l / n as f64);
+    }
+    let total = cum[lam.len()];
+    // The bin whose cumulative rate interval holds `e` (None: before the window).
+    let bin_at = |e: f64| -> Option<usize> {
+        let k = cum.partition_point(|&x| x <= e);
+        (k > 0).then(|| (k - 1).min(lam.len() - 1))
+    };
+    let armed = 1.0 - (-total).exp();
+    let Ok(wait) = Geometric::new(armed) else {
+        return; // nothing to detect
+    };
+    let (mut period, mut open) = (0u64, 0usize);
+    while period < n {
+        let bin = if open == 0 {
+            period = period.saturating_add(rng.sample(&wait));
+            if period >= n {
+                break;
+            }
+            // Given a detection in the period: an exponential arrival truncated to `total`.
+            let u: f64 = rng.sample(&Open01);
+            bin_at(-(-u * armed).ln_1p())
+        } else {
+            let (from, to) = (cum[open], total);
+            let u: f64 = rng.sample(&Open01);
+            let e = from - (-u).ln_1p();
+            (open < lam.len() && e < to).then(|| bin_at(e)).flatten()
+        };
+        open = bin.map_or(0, |i| {
+            c[i] += 1;
+            blind[i]
+        });
+        period += 1;
+    }
 }
 
 /// Add crosstalk: each histogram gathers, per bin, its four neighbours' triggered counts.
