@@ -8,12 +8,13 @@
 //! forked process can render too), and the output's size is checked before it is allocated.
 
 use crate::error::{NlosError, Result};
-use crate::film::{Film, TemporalKernel};
+use crate::film::{Film, Splatter, TemporalKernel};
 use crate::integrator::{NlosTracer, PathTracer, Splat, Tracer};
 use crate::parallel::pool;
 use crate::sampling::Sampler;
 use crate::scene::{Scene, Setup};
 use rayon::prelude::*;
+use std::ops::Range;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 
 /// Samples per random stream (and per cancellation check).
@@ -48,6 +49,11 @@ fn available_memory() -> u64 {
         .map_or(8 << 30, |kib| kib * 1024)
 }
 
+/// The memory a render may allocate: `max_memory`, or 80 % of the memory available.
+pub fn memory_limit(max_memory: Option<u64>) -> u64 {
+    max_memory.unwrap_or_else(|| available_memory() / 5 * 4)
+}
+
 /// A rendered capture in mitransient's layout.
 #[derive(Clone, Debug)]
 pub struct Rendered {
@@ -76,71 +82,388 @@ pub fn total_samples(scene: &Scene, opts: &RenderOptions) -> u64 {
     ((f.width * f.height) as u64).saturating_mul(opts.spp.unwrap_or(scene.meter.spp))
 }
 
-/// Render `scene`.
-pub fn render(scene: &Scene, opts: &RenderOptions, monitor: &Monitor) -> Result<Rendered> {
-    let spp = opts.spp.unwrap_or(scene.meter.spp);
-    if spp == 0 {
-        return Err(NlosError::prop("render", "spp", "must be positive"));
-    }
-    let mut film = scene.meter.film.clone();
-    if let Some(k) = opts.kernel {
-        film.kernel = k;
-    }
-    if film.phasor.is_some() {
-        if !opts.mono {
-            return Err(NlosError::prop(
-                "phasor_hdr_film",
-                "variant",
-                "phasor films render mono only (as mitransient)",
-            ));
+/// How a render of a scene splits into work: every pixel's samples in chunks of whole blocks.
+#[derive(Clone, Debug)]
+pub struct Plan {
+    /// The film, with the render's temporal kernel.
+    pub film: Film,
+    /// Samples per pixel.
+    pub spp: u64,
+    /// Seed of the random streams (the sampler's `seed` + the render's).
+    pub seed: u64,
+    /// Channels (1 mono, 3 rgb).
+    pub channels: usize,
+    /// Pixels (scan points), row-major.
+    pub pixels: usize,
+    /// Chunks each pixel's samples are split into ([`chunks_per_pixel`]).
+    pub chunks: u64,
+    /// Samples per chunk (whole blocks; the last chunk may be shorter or empty).
+    pub per_chunk: u64,
+    /// Floats of transient per pixel.
+    pub pixel_len: usize,
+    /// Shape of the transient and of the steady image.
+    pub transient_shape: Vec<usize>,
+    /// Shape of the steady image.
+    pub steady_shape: Vec<usize>,
+}
+
+impl Plan {
+    /// The plan of rendering `scene` with `opts` (checks the film and the options, not memory).
+    pub fn new(scene: &Scene, opts: &RenderOptions) -> Result<Self> {
+        let spp = opts.spp.unwrap_or(scene.meter.spp);
+        if spp == 0 {
+            return Err(NlosError::prop("render", "spp", "must be positive"));
         }
-        if film.kernel != TemporalKernel::Box {
-            return Err(NlosError::prop(
-                "phasor_hdr_film",
-                "kernel_sigma",
-                "a phasor film is exact in time: it takes no temporal kernel",
-            ));
+        let mut film = scene.meter.film.clone();
+        if let Some(k) = opts.kernel {
+            film.kernel = k;
         }
+        if film.phasor.is_some() {
+            if !opts.mono {
+                return Err(NlosError::prop(
+                    "phasor_hdr_film",
+                    "variant",
+                    "phasor films render mono only (as mitransient)",
+                ));
+            }
+            if film.kernel != TemporalKernel::Box {
+                return Err(NlosError::prop(
+                    "phasor_hdr_film",
+                    "kernel_sigma",
+                    "a phasor film is exact in time: it takes no temporal kernel",
+                ));
+            }
+        }
+        film.check_kernel()?;
+        let c = if opts.mono { 1 } else { 3 };
+        let pixel_len = film.laser_slots() * film.slot_len(c);
+        let pixels = film.width * film.height;
+        let chunks = chunks_per_pixel(pixels as u64, spp, (pixel_len * 4) as u64);
+        Ok(Self {
+            transient_shape: output_shape(&film, c),
+            steady_shape: vec![film.height, film.width, c],
+            film,
+            spp,
+            seed: scene.meter.seed.wrapping_add(opts.seed),
+            channels: c,
+            pixels,
+            chunks,
+            per_chunk: spp.div_ceil(BLOCK).div_ceil(chunks) * BLOCK,
+            pixel_len,
+        })
     }
-    film.check_kernel()?;
-    let c = if opts.mono { 1 } else { 3 };
-    let limit = opts
-        .max_memory
-        .unwrap_or_else(|| available_memory() / 5 * 4);
-    let shape = output_shape(&film, c);
-    shape
-        .iter()
-        .try_fold(4u64, |acc, &d| acc.checked_mul(d as u64))
-        .filter(|&bytes| bytes <= limit)
-        .ok_or_else(|| {
-            NlosError::prop(
+
+    /// Bytes of `pixels` pixels of transient (float32).
+    pub fn bytes(&self, pixels: usize) -> u64 {
+        (pixels as u64)
+            .saturating_mul(self.pixel_len as u64)
+            .saturating_mul(4)
+    }
+
+    /// Check that `bytes` fit in the render's memory limit; the error names `what` and the way out.
+    pub fn check_memory(&self, opts: &RenderOptions, bytes: u64, what: &str) -> Result<()> {
+        let limit = memory_limit(opts.max_memory);
+        if bytes > limit {
+            return Err(NlosError::prop(
                 "transient_hdr_film",
                 "width",
                 format!(
-                    "the transient {shape:?} (float32) needs more than the {limit} bytes allowed: render a smaller film, or raise render(..., max_memory=...)"
+                    "{what} {:?} (float32) needs more than the {limit} bytes allowed: render a smaller film, raise render(..., max_memory=...), or stream it to disk with nlos_rs.render_to_file",
+                    self.transient_shape
                 ),
-            )
-        })?;
-    pool(opts.threads)?.install(|| match &scene.setup {
-        Setup::Nlos(_) => run(
-            &NlosTracer::new(scene, opts.mono, &monitor.cancel)?,
-            &film,
-            scene,
-            spp,
-            opts,
-            monitor,
-        ),
-        Setup::Los(los) => run(
-            &PathTracer::new(scene, los, opts.mono)?,
-            &film,
-            scene,
-            spp,
-            opts,
-            monitor,
-        ),
+            ));
+        }
+        Ok(())
+    }
+
+    /// Samples [first, end) of chunk `k`.
+    fn chunk_samples(&self, k: u64) -> (u64, u64) {
+        let first = (k * self.per_chunk).min(self.spp);
+        (first, (first + self.per_chunk).min(self.spp))
+    }
+}
+
+/// Raw sums (not yet divided by spp) of the chunks `chunks` of pixels `pixels`: what a worker
+/// returns. [`assemble`] turns parts covering every chunk of a run of pixels into the render's
+/// values, bit-identical to [`render`].
+#[derive(Clone, Debug)]
+pub struct Part {
+    /// Pixels covered.
+    pub pixels: Range<usize>,
+    /// Chunks covered, of each pixel.
+    pub chunks: Range<u64>,
+    /// Per pixel, per chunk: `pixel_len` transient sums.
+    pub transient: Vec<f32>,
+    /// Per pixel, per chunk: three steady sums.
+    pub steady: Vec<f64>,
+}
+
+/// Render `scene`.
+pub fn render(scene: &Scene, opts: &RenderOptions, monitor: &Monitor) -> Result<Rendered> {
+    let plan = Plan::new(scene, opts)?;
+    plan.check_memory(opts, plan.bytes(plan.pixels), "the transient")?;
+    pool(opts.threads)?.install(|| {
+        with_tracer!(scene, opts, monitor, |tracer| {
+            let job = Sampling::new(tracer, &plan, monitor);
+            if plan.chunks == 1 {
+                // Each pixel accumulates in place, in sample order.
+                let mut transient = vec![0.0f32; plan.pixels * plan.pixel_len];
+                let mut steady = vec![0.0f32; plan.pixels * plan.channels];
+                transient
+                    .par_chunks_mut(plan.pixel_len)
+                    .zip(steady.par_chunks_mut(plan.channels))
+                    .enumerate()
+                    .try_for_each(|(pixel, (buf, st))| {
+                        let mut sum = [0.0f64; 3];
+                        job.trace(pixel, 0, plan.spp, buf, &mut sum)?;
+                        normalise(&plan, buf, &sum, st);
+                        Ok(())
+                    })?;
+                Ok(rendered(&plan, transient, steady))
+            } else {
+                let part = job.part(0..plan.pixels, 0..plan.chunks)?;
+                let (transient, steady) = assemble(&plan, &[part])?;
+                Ok(rendered(&plan, transient, steady))
+            }
+        })
     })
 }
 
+/// Render the chunks `chunks` of the pixels `pixels` of `scene` (a worker's task); the part's
+/// memory is checked against `opts.max_memory`.
+pub fn render_part(
+    scene: &Scene,
+    opts: &RenderOptions,
+    pixels: Range<usize>,
+    chunks: Range<u64>,
+    monitor: &Monitor,
+) -> Result<Part> {
+    let plan = Plan::new(scene, opts)?;
+    if pixels.start >= pixels.end || pixels.end > plan.pixels {
+        return Err(NlosError::prop(
+            "render",
+            "pixels",
+            format!(
+                "{pixels:?} is not a run of the film's {} pixels",
+                plan.pixels
+            ),
+        ));
+    }
+    if chunks.start >= chunks.end || chunks.end > plan.chunks {
+        return Err(NlosError::prop(
+            "render",
+            "chunks",
+            format!(
+                "{chunks:?} is not a run of the {} chunks per pixel",
+                plan.chunks
+            ),
+        ));
+    }
+    let n = (pixels.len() as u64 * (chunks.end - chunks.start)) as usize;
+    plan.check_memory(opts, plan.bytes(n), "a part of the transient")?;
+    pool(opts.threads)?.install(|| {
+        with_tracer!(scene, opts, monitor, |tracer| {
+            Sampling::new(tracer, &plan, monitor).part(pixels, chunks)
+        })
+    })
+}
+
+/// The render's transient and steady values of a run of pixels from parts that cover every chunk
+/// of each of them, given in pixel order and, within a pixel, chunk order: per pixel the chunks'
+/// sums are added in chunk order and divided by spp, exactly as [`render`] does.
+pub fn assemble(plan: &Plan, parts: &[Part]) -> Result<(Vec<f32>, Vec<f32>)> {
+    let (c, len) = (plan.channels, plan.pixel_len);
+    let first = parts.first().map_or(0, |p| p.pixels.start);
+    let end = parts.last().map_or(0, |p| p.pixels.end);
+    let mut transient = vec![0.0f32; (end - first) * len];
+    let mut steady = vec![0.0f32; (end - first) * c];
+    let mut sums = vec![[0.0f64; 3]; end - first];
+    // The next chunk each pixel expects.
+    let mut next = vec![0u64; end - first];
+    for part in parts {
+        let k = part.chunks.end.saturating_sub(part.chunks.start) as usize;
+        let n = part.pixels.len() * k;
+        if part.transient.len() != n * len || part.steady.len() != n * 3 {
+            return Err(NlosError::Scene(format!(
+                "a part of pixels {:?}, chunks {:?} holds {} + {} values, not {} + {}",
+                part.pixels,
+                part.chunks,
+                part.transient.len(),
+                part.steady.len(),
+                n * len,
+                n * 3
+            )));
+        }
+        for (i, pixel) in part.pixels.clone().enumerate() {
+            let j = pixel.checked_sub(first).filter(|&j| j < end - first);
+            let Some(j) = j.filter(|&j| next[j] == part.chunks.start) else {
+                return Err(NlosError::Scene(format!(
+                    "parts out of order: pixel {pixel}, chunks {:?}",
+                    part.chunks
+                )));
+            };
+            let buf = &mut transient[j * len..(j + 1) * len];
+            for chunk in 0..k {
+                let at = i * k + chunk;
+                let src = &part.transient[at * len..(at + 1) * len];
+                buf.iter_mut().zip(src).for_each(|(a, b)| *a += b);
+                for (a, b) in sums[j].iter_mut().zip(&part.steady[at * 3..at * 3 + 3]) {
+                    *a += b;
+                }
+            }
+            next[j] = part.chunks.end;
+        }
+    }
+    if next.iter().any(|&n| n != plan.chunks) {
+        return Err(NlosError::Scene("parts do not cover every chunk".into()));
+    }
+    for (j, sum) in sums.iter().enumerate() {
+        normalise(
+            plan,
+            &mut transient[j * len..(j + 1) * len],
+            sum,
+            &mut steady[j * c..(j + 1) * c],
+        );
+    }
+    Ok((transient, steady))
+}
+
+/// The render's arrays with their shapes.
+fn rendered(plan: &Plan, transient: Vec<f32>, steady: Vec<f32>) -> Rendered {
+    Rendered {
+        steady,
+        steady_shape: plan.steady_shape.clone(),
+        transient,
+        transient_shape: plan.transient_shape.clone(),
+    }
+}
+
+/// Divide a pixel's sums by spp; exhaustive steady images average the laser points.
+fn normalise(plan: &Plan, buf: &mut [f32], sum: &[f64; 3], st: &mut [f32]) {
+    let inv_spp = 1.0 / plan.spp as f64;
+    for v in buf.iter_mut() {
+        *v = (*v as f64 * inv_spp) as f32;
+    }
+    let slots = plan.film.laser_slots();
+    for k in 0..plan.channels {
+        st[k] = (sum[k] * inv_spp / slots as f64) as f32;
+    }
+}
+
+/// Run `$body` with `$t` bound to the scene's tracer (each arm is compiled for its tracer type).
+macro_rules! with_tracer {
+    ($scene:expr, $opts:expr, $monitor:expr, |$t:ident| $body:expr) => {
+        match &$scene.setup {
+            Setup::Nlos(_) => {
+                let $t = &NlosTracer::new($scene, $opts.mono, &$monitor.cancel)?;
+                $body
+            }
+            Setup::Los(los) => {
+                let $t = &PathTracer::new($scene, los, $opts.mono)?;
+                $body
+            }
+        }
+    };
+}
+use with_tracer;
+
+/// A tracer's samples into sums: the per-(seed, pixel, block) streams, the splatter, progress and
+/// cancellation.
+struct Sampling<'a, T> {
+    tracer: &'a T,
+    plan: &'a Plan,
+    monitor: &'a Monitor,
+    splatter: Splatter,
+}
+
+impl<'a, T: Tracer> Sampling<'a, T> {
+    fn new(tracer: &'a T, plan: &'a Plan, monitor: &'a Monitor) -> Self {
+        Self {
+            tracer,
+            plan,
+            monitor,
+            splatter: plan.film.splatter(),
+        }
+    }
+
+    /// Samples [first, end) of `pixel`, accumulated into its transient `buf` and steady `sum`.
+    fn trace(
+        &self,
+        pixel: usize,
+        first: u64,
+        end: u64,
+        buf: &mut [f32],
+        sum: &mut [f64; 3],
+    ) -> Result<()> {
+        let (film, c) = (&self.plan.film, self.plan.channels);
+        let slot_len = film.slot_len(c);
+        let mut splat = |s: Splat| {
+            // Nothing non-finite reaches the film (an overflowing product of extreme
+            // but valid parameters is dropped, not spread as Inf or NaN).
+            if !s.value.is_finite() || !s.opl.is_finite() {
+                return;
+            }
+            for (k, acc) in sum.iter_mut().enumerate().take(c) {
+                *acc += s.value[k] as f64;
+            }
+            let slot = &mut buf[s.slot * slot_len..(s.slot + 1) * slot_len];
+            match &film.phasor {
+                Some(ph) => ph.put(s.opl - film.start_opl, s.value[0], slot),
+                None => self.splatter.splat(s.opl, |bin, w| {
+                    for k in 0..c {
+                        slot[bin * c + k] += s.value[k] * w;
+                    }
+                }),
+            }
+        };
+        let cancel = &self.monitor.cancel;
+        let mut start = first;
+        while start < end {
+            if cancel.load(Ordering::Relaxed) {
+                return Err(NlosError::Interrupted);
+            }
+            let n = BLOCK.min(end - start);
+            let mut rng = Sampler::new(self.plan.seed, pixel as u64, start / BLOCK);
+            for _ in 0..n {
+                self.tracer.trace(pixel, &mut rng, &mut splat);
+                if cancel.load(Ordering::Relaxed) {
+                    return Err(NlosError::Interrupted);
+                }
+            }
+            self.monitor.done.fetch_add(n, Ordering::Relaxed);
+            start += n;
+        }
+        Ok(())
+    }
+
+    /// Every (pixel, chunk) of the ranges in parallel, each into a buffer of its own.
+    fn part(&self, pixels: Range<usize>, chunks: Range<u64>) -> Result<Part> {
+        let (len, k) = (self.plan.pixel_len, chunks.end - chunks.start);
+        let tasks = pixels.len() as u64 * k;
+        let sums = (0..tasks)
+            .into_par_iter()
+            .map(|task| {
+                let pixel = pixels.start + (task / k) as usize;
+                let (first, end) = self.plan.chunk_samples(chunks.start + task % k);
+                let mut buf = vec![0.0f32; len];
+                let mut sum = [0.0f64; 3];
+                self.trace(pixel, first, end, &mut buf, &mut sum)?;
+                Ok((buf, sum))
+            })
+            .collect::<Result<Vec<_>>>()?;
+        let mut part = Part {
+            pixels,
+            chunks,
+            transient: Vec::with_capacity(tasks as usize * len),
+            steady: Vec::with_capacity(tasks as usize * 3),
+        };
+        for (buf, sum) in sums {
+            part.transient.extend_from_slice(&buf);
+            part.steady.extend_from_slice(&sum);
+        }
+        Ok(part)
+    }
+}
 /// The transient's shape: (H, W, T, C), exhaustive (H, W, LH, LW, T, C); for a phasor film
 /// (frequencies, 2) in place of (T, C).
 fn output_shape(film: &Film, c: usize) -> Vec<usize> {
@@ -169,125 +492,4 @@ fn chunks_per_pixel(npix: u64, spp: u64, pixel_bytes: u64) -> u64 {
     let blocks = spp.div_ceil(BLOCK);
     let by_memory = (CHUNK_MEMORY / (npix * pixel_bytes).max(1)).max(1);
     MIN_TASKS.div_ceil(npix).min(blocks).min(by_memory).max(1)
-}
-
-/// The loop over pixels and sample blocks, for one tracer.
-fn run(
-    tracer: &impl Tracer,
-    film: &Film,
-    scene: &Scene,
-    spp: u64,
-    opts: &RenderOptions,
-    monitor: &Monitor,
-) -> Result<Rendered> {
-    let seed = scene.meter.seed.wrapping_add(opts.seed);
-    let splatter = film.splatter();
-    let c = if opts.mono { 1 } else { 3 };
-    let (slots, slot_len) = (film.laser_slots(), film.slot_len(c));
-    let pixel_len = slots * slot_len;
-    let npix = film.width * film.height;
-    let mut transient = vec![0.0f32; npix * pixel_len];
-    let mut steady = vec![0.0f32; npix * c];
-    let inv_spp = 1.0 / spp as f64;
-
-    // Samples [first, end) of `pixel`, accumulated into its transient `buf` and steady `sum`.
-    let trace = |pixel: usize, first: u64, end: u64, buf: &mut [f32], sum: &mut [f64; 3]| {
-        let mut splat = |s: Splat| {
-            // Nothing non-finite reaches the film (an overflowing product of extreme
-            // but valid parameters is dropped, not spread as Inf or NaN).
-            if !s.value.is_finite() || !s.opl.is_finite() {
-                return;
-            }
-            for (k, acc) in sum.iter_mut().enumerate().take(c) {
-                *acc += s.value[k] as f64;
-            }
-            let slot = &mut buf[s.slot * slot_len..(s.slot + 1) * slot_len];
-            match &film.phasor {
-                Some(ph) => ph.put(s.opl - film.start_opl, s.value[0], slot),
-                None => splatter.splat(s.opl, |bin, w| {
-                    for k in 0..c {
-                        slot[bin * c + k] += s.value[k] * w;
-                    }
-                }),
-            }
-        };
-        let mut start = first;
-        while start < end {
-            if monitor.cancel.load(Ordering::Relaxed) {
-                return Err(NlosError::Interrupted);
-            }
-            let n = BLOCK.min(end - start);
-            let mut rng = Sampler::new(seed, pixel as u64, start / BLOCK);
-            for _ in 0..n {
-                tracer.trace(pixel, &mut rng, &mut splat);
-                if monitor.cancel.load(Ordering::Relaxed) {
-                    return Err(NlosError::Interrupted);
-                }
-            }
-            monitor.done.fetch_add(n, Ordering::Relaxed);
-            start += n;
-        }
-        Ok(())
-    };
-    // Normalise by the sample count; exhaustive steady images average the laser points.
-    let normalise = |buf: &mut [f32], sum: &[f64; 3], st: &mut [f32]| {
-        for v in buf.iter_mut() {
-            *v = (*v as f64 * inv_spp) as f32;
-        }
-        for k in 0..c {
-            st[k] = (sum[k] * inv_spp / slots as f64) as f32;
-        }
-    };
-
-    let chunks = chunks_per_pixel(npix as u64, spp, (pixel_len * 4) as u64);
-    if chunks == 1 {
-        transient
-            .par_chunks_mut(pixel_len)
-            .zip(steady.par_chunks_mut(c))
-            .enumerate()
-            .try_for_each(|(pixel, (buf, st))| {
-                let mut sum = [0.0f64; 3];
-                trace(pixel, 0, spp, buf, &mut sum)?;
-                normalise(buf, &sum, st);
-                Ok(())
-            })?;
-    } else {
-        // Each chunk (whole blocks) into a buffer of its own, then the chunks summed in order.
-        let per_chunk = spp.div_ceil(BLOCK).div_ceil(chunks) * BLOCK;
-        let parts = (0..npix as u64 * chunks)
-            .into_par_iter()
-            .map(|task| {
-                let (pixel, chunk) = ((task / chunks) as usize, task % chunks);
-                let first = (chunk * per_chunk).min(spp);
-                let mut buf = vec![0.0f32; pixel_len];
-                let mut sum = [0.0f64; 3];
-                trace(
-                    pixel,
-                    first,
-                    (first + per_chunk).min(spp),
-                    &mut buf,
-                    &mut sum,
-                )?;
-                Ok((buf, sum))
-            })
-            .collect::<Result<Vec<_>>>()?;
-        for ((buf, st), pixel_parts) in transient
-            .chunks_mut(pixel_len)
-            .zip(steady.chunks_mut(c))
-            .zip(parts.chunks(chunks as usize))
-        {
-            let mut sum = [0.0f64; 3];
-            for (part, part_sum) in pixel_parts {
-                buf.iter_mut().zip(part).for_each(|(a, b)| *a += b);
-                sum.iter_mut().zip(part_sum).for_each(|(a, b)| *a += b);
-            }
-            normalise(buf, &sum, st);
-        }
-    }
-    Ok(Rendered {
-        steady,
-        steady_shape: vec![film.height, film.width, c],
-        transient,
-        transient_shape: output_shape(film, c),
-    })
 }

@@ -23,6 +23,7 @@ from . import io, metrics, nlos, scenes, sensor, transform
 from .transform import Transform4f
 from .values import normalize
 from .xml import save_xml
+from .out_of_core import render_to_file
 
 __all__ = [
     "Scene",
@@ -35,6 +36,7 @@ __all__ = [
     "metrics",
     "nlos",
     "render",
+    "render_to_file",
     "save_xml",
     "scenes",
     "speed_of_light",
@@ -54,7 +56,9 @@ def load_dict(d: Mapping[str, Any]) -> Scene:
     """
     if not isinstance(d, Mapping):
         raise TypeError(f"load_dict expects a dict, got {type(d).__name__}")
-    return _warn(_core.load_dict(normalize(d), os.getcwd()))
+    scene = _warn(_core.load_dict(normalize(d), os.getcwd()))
+    scene._nlos_source = ("dict", dict(d))  # what nlos_rs.distributed workers load again
+    return scene
 
 
 def load_file(path: Union[str, os.PathLike], **params: Any) -> Scene:
@@ -63,7 +67,9 @@ def load_file(path: Union[str, os.PathLike], **params: Any) -> Scene:
     def text(v: Any) -> str:
         return ("true" if v else "false") if isinstance(v, bool) else str(v)
 
-    return _warn(_core.load_file(os.fspath(path), {k: text(v) for k, v in params.items()}))
+    scene = _warn(_core.load_file(os.fspath(path), {k: text(v) for k, v in params.items()}))
+    scene._nlos_source = ("file", os.path.abspath(os.fspath(path)), dict(params))
+    return scene
 
 
 def _warn(scene: Scene) -> Scene:

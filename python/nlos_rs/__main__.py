@@ -14,11 +14,7 @@ import numpy as np
 
 import nlos_rs
 
-BUILTIN = {
-    "z_nlos_1corner": nlos_rs.scenes.z_nlos_1corner,
-    "t_nlos_2corner_small": lambda **kw: nlos_rs.scenes.t_nlos_2corner("small", **kw),
-    "t_nlos_2corner_big": lambda **kw: nlos_rs.scenes.t_nlos_2corner("big", **kw),
-}
+BUILTIN = nlos_rs.scenes.BUILTIN
 
 #: Film options of the built-in scenes: command-line flag -> keyword of the scene function.
 FILM_OPTIONS = {"width": "width", "height": "height", "bins": "temporal_bins", "bin_width": "bin_width_opl",
@@ -156,9 +152,24 @@ def main(argv=None) -> int:
     rend.add_argument("--bins", type=int, help="built-in scenes: number of time bins")
     rend.add_argument("--bin-width", type=float, help="built-in scenes: bin width (optical path, m)")
     rend.add_argument("--start", type=float, help="built-in scenes: optical path at the start of bin 0 (m)")
+    bat = sub.add_parser("batch", help="render one tal capture per scene into a folder (resumable; distributable)")
+    bat.add_argument("scenes", nargs="+", metavar="SCENE", help=f"Mitsuba XML files or built-in names ({', '.join(BUILTIN)})")
+    bat.add_argument("--out", required=True, help="folder for <name>.hdf5 (outputs already there are skipped)")
+    bat.add_argument("--spp", type=int, default=None, help="samples per scan point (default: each scene's)")
+    bat.add_argument("--seed", type=int, default=0)
+    bat.add_argument("--scheduler", metavar="ADDRESS", help="a Dask scheduler (tcp://host:8786); default: render here")
+    bat.add_argument("--max-memory", help="memory for one capture's tiles, e.g. 2GiB (default: 80%% of what is available)")
+    bat.add_argument("--quiet", action="store_true", help="no progress bar")
     sub.add_parser("evaluate", help="reproduce the thesis evaluation (see: evaluate --help)")
     args = ap.parse_args(argv)
     try:
+        if args.cmd == "batch":
+            from . import distributed
+
+            for path in distributed.batch(args.scenes, args.out, spp=args.spp, seed=args.seed, client=args.scheduler,
+                                          progress=not args.quiet, max_memory=args.max_memory):
+                print(path)
+            return 0
         if args.cmd == "demo":
             args.spp = args.spp or 4096
             out = Path(args.out)

@@ -26,9 +26,29 @@ H_FORMAT = {"T_Sx_Sy": 1, "T_Lx_Ly_Sx_Sy": 2}
 GRID_X_Y_3 = 2
 
 
-def capture_fields(scene: Scene, transient: np.ndarray, zero_t_start: bool = False,
+def tal_H(transient: np.ndarray, exhaustive: bool) -> np.ndarray:
+    """mitransient's order (y, x, [ly, lx,] t, c) to tal's H (t, [lx, ly,] x, y), channels summed.
+    Photon counts (nlos_rs.sensor.simulate) stay integers; radiometric values are float32."""
+    t = np.asarray(transient)
+    t = t.sum(-1, dtype=np.int64) if t.dtype.kind in "iu" else t.sum(-1, dtype=np.float64).astype(np.float32)
+    return np.ascontiguousarray(np.transpose(t, (4, 3, 2, 1, 0) if exhaustive else (2, 1, 0)))
+
+
+def leading_bins(scene: Scene, zero_t_start: bool) -> int:
+    """Empty bins padded before H so that ``t_start = 0`` (tal 0.20's ``pf_dev``), or 0."""
+    _, delta_t, t_start = scene.temporal
+    if not zero_t_start or t_start == 0:
+        return 0
+    pad = t_start / delta_t
+    if abs(pad - round(pad)) > 1e-6 or pad < 0:
+        raise ValueError(f"zero_t_start needs start_opl ({t_start}) to be a whole number of bins ({delta_t})")
+    return int(round(pad))
+
+
+def capture_fields(scene: Scene, transient: Optional[np.ndarray], zero_t_start: bool = False,
                    scene_info: Optional[Dict[str, Any]] = None) -> Dict[str, Any]:
-    """The ``NLOSCaptureData`` fields of a render (channels summed, as ``tal render`` does)."""
+    """The ``NLOSCaptureData`` fields of a render (channels summed, as ``tal render`` does); with
+    ``transient=None`` every field but ``H`` (``nlos_rs.render_to_file`` writes H tile by tile)."""
     from . import __version__
 
     if scene.phasor_frequencies is not None:
@@ -38,19 +58,17 @@ def capture_fields(scene: Scene, transient: np.ndarray, zero_t_start: bool = Fal
     w, h = scene.film_size
     bins, delta_t, t_start = scene.temporal
     exhaustive = scene.capture_type == "exhaustive"
-    expect = (h, w) + ((scene.laser_scan[1], scene.laser_scan[0]) if exhaustive else ()) + (bins,)
-    t = np.asarray(transient)
-    if t.shape[:-1] != expect:
-        raise ValueError(f"transient shape {t.shape} does not match the scene (expected {expect + ('C',)})")
-    # Photon counts (nlos_rs.sensor.simulate) stay integers; radiometric values are float32.
-    t = t.sum(-1, dtype=np.int64) if t.dtype.kind in "iu" else t.sum(-1, dtype=np.float64).astype(np.float32)
-    # mitransient order (y, x, [ly, lx,] t) -> tal order (t, [lx, ly,] x, y)
-    H = np.ascontiguousarray(np.transpose(t, (4, 3, 2, 1, 0) if exhaustive else (2, 1, 0)))
-    if zero_t_start and t_start != 0:
-        pad = t_start / delta_t
-        if abs(pad - round(pad)) > 1e-6 or pad < 0:
-            raise ValueError(f"zero_t_start needs start_opl ({t_start}) to be a whole number of bins ({delta_t})")
-        H = np.concatenate([np.zeros((int(round(pad)),) + H.shape[1:], H.dtype), H], axis=0)
+    pad = leading_bins(scene, zero_t_start)
+    H = None
+    if transient is not None:
+        expect = (h, w) + ((scene.laser_scan[1], scene.laser_scan[0]) if exhaustive else ()) + (bins,)
+        t = np.asarray(transient)
+        if t.shape[:-1] != expect:
+            raise ValueError(f"transient shape {t.shape} does not match the scene (expected {expect + ('C',)})")
+        H = tal_H(t, exhaustive)
+        if pad:
+            H = np.concatenate([np.zeros((pad,) + H.shape[1:], H.dtype), H], axis=0)
+    if pad:
         t_start = 0.0
     # Wall points at the scan-pixel centres, [x, y] order.
     grid = np.array([[scene.relay_wall_point((ix + 0.5) / w, (iy + 0.5) / h)[0] for iy in range(h)] for ix in range(w)], np.float32)
@@ -86,19 +104,30 @@ def capture_fields(scene: Scene, transient: np.ndarray, zero_t_start: bool = Fal
 def write_capture(path: Union[str, os.PathLike], scene: Scene, transient: np.ndarray, zero_t_start: bool = False,
                   compression_level: int = 0, scene_info: Optional[Dict[str, Any]] = None) -> None:
     """Write a render as a tal HDF5 capture (readable by ``tal.io.read_capture``)."""
+    write_fields(path, capture_fields(scene, transient, zero_t_start, scene_info), compression_level)
+
+
+def write_fields(path: Union[str, os.PathLike], fields: Dict[str, Any], compression_level: int = 0,
+                 H_shape: Optional[tuple] = None, H_chunks: Optional[tuple] = None):
+    """Write capture fields in tal's layout; with ``H_shape`` (and ``fields["H"]`` None) create an
+    empty float32 H of that shape, stored in ``H_chunks``, and return the open file for the caller
+    to fill and close."""
     import h5py
 
-    fields = capture_fields(scene, transient, zero_t_start, scene_info)
     enums = {
         "H_format": h5py.enum_dtype({"UNKNOWN": 0, "T_Sx_Sy": 1, "T_Lx_Ly_Sx_Sy": 2, "T_Si": 3, "T_Li_Si": 4}, basetype="i4"),
         "sensor_grid_format": h5py.enum_dtype({"UNKNOWN": 0, "N_3": 1, "X_Y_3": 2}, basetype="i4"),
         "laser_grid_format": h5py.enum_dtype({"UNKNOWN": 0, "N_3": 1, "X_Y_3": 2}, basetype="i4"),
     }
-    with h5py.File(path, "w") as f:
+    f = h5py.File(path, "w")
+    try:
         for key, value in fields.items():
             if key == "H":
                 kw = {"compression": "gzip", "compression_opts": compression_level} if compression_level else {}
-                f.create_dataset(key, data=value, **kw)
+                if value is None:
+                    f.create_dataset(key, shape=H_shape, dtype=np.float32, fillvalue=0.0, chunks=H_chunks, **kw)
+                else:
+                    f.create_dataset(key, data=value, **kw)
             elif key in enums:
                 f.create_dataset(key, data=np.array([value], np.int32), dtype=enums[key])
             elif key == "scene_info":
@@ -107,6 +136,13 @@ def write_capture(path: Union[str, os.PathLike], scene: Scene, transient: np.nda
                 f.create_dataset(key, data=h5py.Empty("f"))
             else:
                 f.create_dataset(key, data=value)
+    except BaseException:
+        f.close()
+        raise
+    if H_shape is not None:
+        return f
+    f.close()
+    return None
 
 
 def to_tal(scene: Scene, transient: np.ndarray, zero_t_start: bool = False, scene_info: Optional[Dict[str, Any]] = None):

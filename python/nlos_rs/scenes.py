@@ -253,3 +253,11 @@ def cornell_box(width: int = 128, height: int = 128, spp: int = 1024, temporal_b
                       "to_world": T().translate([-0.33, -0.4, -0.28]).rotate([0, 1, 0], 18.25).scale([0.3, 0.61, 0.3])},
     }
     return to_transient(d, temporal_bins, bin_width_opl, start_opl)
+
+
+#: The built-in scenes by name (the command line's SCENE argument): name -> function of film keywords.
+BUILTIN = {
+    "z_nlos_1corner": z_nlos_1corner,
+    "t_nlos_2corner_small": lambda **kw: t_nlos_2corner("small", **kw),
+    "t_nlos_2corner_big": lambda **kw: t_nlos_2corner("big", **kw),
+}

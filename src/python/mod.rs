@@ -1,6 +1,7 @@
 //! The PyO3 binding: converts Python values to the core's types and back, releases the GIL while
 //! rendering, forwards progress and Ctrl-C, and maps [`crate::NlosError`]. No physics here.
 
+mod parts;
 mod spad;
 
 use crate::error::NlosError;
@@ -277,7 +278,7 @@ fn object(
 }
 
 /// A loaded scene (immutable but for the laser's aim).
-#[pyclass(module = "nlos_rs._core", name = "Scene", frozen)]
+#[pyclass(module = "nlos_rs._core", name = "Scene", frozen, dict)]
 pub struct PyScene {
     inner: std::sync::RwLock<Arc<crate::Scene>>,
 }
@@ -478,13 +479,22 @@ impl PyScene {
         let (p, n) = self.get().relay_wall_point(Vec2::new(u, v))?;
         Ok((p.to_array(), n.to_array()))
     }
-    /// Aim the laser at a world point from its current origin.
-    fn focus_laser_at(&self, x: f32, y: f32, z: f32) -> PyResult<()> {
-        let mut guard = self
-            .inner
-            .write()
-            .map_err(|_| SceneError::new_err("scene lock poisoned"))?;
-        Arc::make_mut(&mut guard).focus_laser_at(Vec3A::new(x, y, z))?;
+    /// Aim the laser at a world point from its current origin. The scene no longer matches the
+    /// description it was loaded from, so it forgets it (`_nlos_source`, which
+    /// `nlos_rs.distributed` reloads on workers).
+    fn focus_laser_at(slf: &Bound<'_, Self>, x: f32, y: f32, z: f32) -> PyResult<()> {
+        {
+            let this = slf.get();
+            let mut guard = this
+                .inner
+                .write()
+                .map_err(|_| SceneError::new_err("scene lock poisoned"))?;
+            Arc::make_mut(&mut guard).focus_laser_at(Vec3A::new(x, y, z))?;
+        }
+        let dict = slf.getattr("__dict__")?;
+        if dict.contains("_nlos_source")? {
+            dict.del_item("_nlos_source")?;
+        }
         Ok(())
     }
     fn __repr__(&self) -> String {
@@ -571,18 +581,15 @@ fn render<'py>(
     max_memory: Option<u64>,
 ) -> PyResult<Arrays<'py>> {
     let scene = scene.get();
-    let kernel = match (kernel_sigma, kernel_bandwidth) {
-        (None, None) => None,
-        (s, b) => Some(crate::film::TemporalKernel::from_params("render", s, b)?),
-    };
-    let opts = RenderOptions {
-        kernel,
+    let opts = options(
         spp,
         seed,
         threads,
         mono,
+        kernel_sigma,
+        kernel_bandwidth,
         max_memory,
-    };
+    )?;
     let total = total_samples(&scene, &opts);
     let monitor = Monitor::default();
     let out = interruptible(
@@ -599,6 +606,31 @@ fn render<'py>(
     let steady = PyArray1::from_vec(py, out.steady).reshape(out.steady_shape)?;
     let transient = PyArray1::from_vec(py, out.transient).reshape(out.transient_shape)?;
     Ok((steady.into_any(), transient.into_any()))
+}
+
+/// The core's render options from `render`'s keyword arguments.
+#[allow(clippy::too_many_arguments)]
+fn options(
+    spp: Option<u64>,
+    seed: u64,
+    threads: Option<usize>,
+    mono: bool,
+    kernel_sigma: Option<f64>,
+    kernel_bandwidth: Option<f64>,
+    max_memory: Option<u64>,
+) -> PyResult<RenderOptions> {
+    let kernel = match (kernel_sigma, kernel_bandwidth) {
+        (None, None) => None,
+        (s, b) => Some(crate::film::TemporalKernel::from_params("render", s, b)?),
+    };
+    Ok(RenderOptions {
+        kernel,
+        spp,
+        seed,
+        threads,
+        mono,
+        max_memory,
+    })
 }
 
 /// Mitsuba-convention transforms as row-major nested lists.
@@ -640,6 +672,11 @@ fn core_module(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(load_dict, m)?)?;
     m.add_function(wrap_pyfunction!(load_file, m)?)?;
     m.add_function(wrap_pyfunction!(render, m)?)?;
+    m.add_function(wrap_pyfunction!(parts::render_plan, m)?)?;
+    m.add_function(wrap_pyfunction!(parts::render_part, m)?)?;
+    m.add_function(wrap_pyfunction!(parts::assemble, m)?)?;
+    m.add_function(wrap_pyfunction!(parts::render_check_memory, m)?)?;
+    m.add_function(wrap_pyfunction!(parts::memory_limit, m)?)?;
     m.add_function(wrap_pyfunction!(spad::spad_check, m)?)?;
     m.add_function(wrap_pyfunction!(spad::spad_expected_counts, m)?)?;
     m.add_function(wrap_pyfunction!(spad::spad_simulate, m)?)?;
