@@ -9,21 +9,11 @@ tasks, against the same work done locally).
 
 from __future__ import annotations
 
-import time
-
 import nlos_rs
 import nlos_rs.distributed as nd
 from distributed import Client, LocalCluster
 from nlos_rs import scenes
-
-
-def best(f, repeats: int = 3) -> float:
-    out = float("inf")
-    for _ in range(repeats):
-        t = time.perf_counter()
-        f()
-        out = min(out, time.perf_counter() - t)
-    return out
+from timing import best
 
 
 def main() -> None:

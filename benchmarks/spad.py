@@ -9,19 +9,10 @@ crosstalk) and of coates; the transient is a render of the built-in Z at 64 spp.
 from __future__ import annotations
 
 import os
-import time
 
 import nlos_rs
 from nlos_rs import scenes, sensor
-
-
-def timed(f, repeats: int = 3) -> float:
-    best = float("inf")
-    for _ in range(repeats):
-        t = time.perf_counter()
-        f()
-        best = min(best, time.perf_counter() - t)
-    return best
+from timing import best
 
 
 def main() -> None:
@@ -31,10 +22,10 @@ def main() -> None:
     full = sensor.Spad(pile_up=True, dead_time_ns=50.0, afterpulse_prob=0.05, crosstalk_prob=0.05, ambient_rate_hz=1e6)
     counts = sensor.simulate(scene, transient, full)
     print(f"64x64 x 1000 bins, {os.cpu_count()} cores")
-    print(f"expected_counts                          {timed(lambda: sensor.expected_counts(scene, transient, plain)):.3f} s")
-    print(f"simulate (Poisson)                       {timed(lambda: sensor.simulate(scene, transient, plain)):.3f} s")
-    print(f"simulate (pile-up, afterpulse, crosstalk) {timed(lambda: sensor.simulate(scene, transient, full)):.3f} s")
-    print(f"coates                                   {timed(lambda: sensor.coates(counts, scene, full)):.3f} s")
+    print(f"expected_counts                          {best(lambda: sensor.expected_counts(scene, transient, plain)):.3f} s")
+    print(f"simulate (Poisson)                       {best(lambda: sensor.simulate(scene, transient, plain)):.3f} s")
+    print(f"simulate (pile-up, afterpulse, crosstalk) {best(lambda: sensor.simulate(scene, transient, full)):.3f} s")
+    print(f"coates                                   {best(lambda: sensor.coates(counts, scene, full)):.3f} s")
 
 
 if __name__ == "__main__":

@@ -117,7 +117,11 @@ def _aligned(part):
 def _client(client) -> Iterator[Any]:
     """A Dask client: the one given, one connected to a scheduler address, or an embedded
     LocalCluster of one single-threaded worker process per core on 127.0.0.1, closed after."""
-    from distributed import Client, LocalCluster
+    try:
+        from distributed import Client, LocalCluster
+    except ImportError as e:
+        raise ImportError("rendering on Dask needs dask.distributed: pip install 'dask[distributed]' "
+                          "(or nlos_rs's extra: pip install '.[distributed]')") from e
 
     if client is not None and not isinstance(client, str):
         yield client
