@@ -58,7 +58,7 @@ def test_rgb_kernel_seed_and_scene_objects(client):
 
 
 def test_a_killed_worker_changes_nothing():
-    d = scenes.z_nlos_1corner(width=1, height=1, spp=3 << 20)
+    d = scenes.z_nlos_1corner(width=1, height=1, spp=1 << 25)
     ref = nlos_rs.render(d, progress=False)
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
                                   dashboard_address="127.0.0.1:0") as cluster, distributed.Client(cluster) as c:
@@ -67,10 +67,10 @@ def test_a_killed_worker_changes_nothing():
         job = threading.Thread(target=lambda: result.update(out=nd.render(d, client=c, progress=False, tasks=48)))
         job.start()
         time.sleep(1.0)
+        assert job.is_alive(), "the render ended before a worker could be killed"
         os.kill(next(iter(pids.values())), signal.SIGKILL)
         job.join(timeout=300)
         assert not job.is_alive()
-        assert set(c.run(os.getpid).values()) != set(pids.values()), "no worker was killed"
     steady, transient = result["out"]
     assert np.array_equal(transient, ref[1]) and np.array_equal(steady, ref[0])
 
