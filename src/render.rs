@@ -136,11 +136,24 @@ impl Plan {
         }
         film.check_kernel()?;
         let c = if opts.mono { 1 } else { 3 };
+        // The whole output's size must be a number before anything multiplies its dimensions.
+        let transient_shape = output_shape(&film, c);
+        if transient_shape
+            .iter()
+            .try_fold(4u64, |acc, &d| acc.checked_mul(d as u64))
+            .is_none()
+        {
+            return Err(NlosError::prop(
+                "transient_hdr_film",
+                "width",
+                format!("the transient {transient_shape:?} has more than 2^64 bytes"),
+            ));
+        }
         let pixel_len = film.laser_slots() * film.slot_len(c);
         let pixels = film.width * film.height;
         let chunks = chunks_per_pixel(pixels as u64, spp, (pixel_len * 4) as u64);
         Ok(Self {
-            transient_shape: output_shape(&film, c),
+            transient_shape,
             steady_shape: vec![film.height, film.width, c],
             film,
             spp,
