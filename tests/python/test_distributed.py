@@ -46,6 +46,15 @@ def test_bit_identical_to_the_local_render(client, case):
     assert transient.shape == ref[1].shape and transient.sum() > 0
 
 
+@pytest.mark.parametrize("xml,spp", [("transient-nlos/nlos-z-simple.xml", 195), ("cornell-box/cbox_diffuse.xml", 1)])
+def test_bit_identical_on_mitransients_own_files(client, xml, spp):
+    # Files from mitransient's repository (tests/data/mitransient): workers load the XML by path.
+    path = os.path.join(os.path.dirname(__file__), "..", "data", "mitransient", xml)
+    out = nd.render(path, spp=spp, client=client, progress=False)
+    ref = nlos_rs.render(path, spp=spp, progress=False)
+    assert all(np.array_equal(a, b) for a, b in zip(out, ref)) and ref[1].sum() > 0
+
+
 def test_rgb_kernel_seed_and_scene_objects(client):
     scene = nlos_rs.load_dict(scenes.z_nlos_1corner(width=4, height=4, spp=400))
     kw = dict(spp=700, seed=3, variant="rgb", kernel_sigma=1.5)
