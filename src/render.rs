@@ -449,31 +449,29 @@ impl<'a, T: Tracer> Sampling<'a, T> {
         Ok(())
     }
 
-    /// Every (pixel, chunk) of the ranges in parallel, each into a buffer of its own.
+    /// Every (pixel, chunk) of the ranges in parallel, each into its own slice of the part.
     fn part(&self, pixels: Range<usize>, chunks: Range<u64>) -> Result<Part> {
         let (len, k) = (self.plan.pixel_len, chunks.end - chunks.start);
-        let tasks = pixels.len() as u64 * k;
-        let sums = (0..tasks)
-            .into_par_iter()
-            .map(|task| {
-                let pixel = pixels.start + (task / k) as usize;
-                let (first, end) = self.plan.chunk_samples(chunks.start + task % k);
-                let mut buf = vec![0.0f32; len];
-                let mut sum = [0.0f64; 3];
-                self.trace(pixel, first, end, &mut buf, &mut sum)?;
-                Ok((buf, sum))
-            })
-            .collect::<Result<Vec<_>>>()?;
+        let tasks = pixels.len() * k as usize;
         let mut part = Part {
+            transient: vec![0.0f32; tasks * len],
+            steady: vec![0.0f64; tasks * 3],
             pixels,
             chunks,
-            transient: Vec::with_capacity(tasks as usize * len),
-            steady: Vec::with_capacity(tasks as usize * 3),
         };
-        for (buf, sum) in sums {
-            part.transient.extend_from_slice(&buf);
-            part.steady.extend_from_slice(&sum);
-        }
+        let (first_pixel, first_chunk) = (part.pixels.start, part.chunks.start);
+        part.transient
+            .par_chunks_mut(len.max(1))
+            .zip(part.steady.par_chunks_mut(3))
+            .enumerate()
+            .try_for_each(|(task, (buf, st))| {
+                let pixel = first_pixel + task / k as usize;
+                let (first, end) = self.plan.chunk_samples(first_chunk + task as u64 % k);
+                let mut sum = [0.0f64; 3];
+                self.trace(pixel, first, end, buf, &mut sum)?;
+                st.copy_from_slice(&sum);
+                Ok(())
+            })?;
         Ok(part)
     }
 }

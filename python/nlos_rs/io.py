@@ -30,7 +30,12 @@ def tal_H(transient: np.ndarray, exhaustive: bool) -> np.ndarray:
     """mitransient's order (y, x, [ly, lx,] t, c) to tal's H (t, [lx, ly,] x, y), channels summed.
     Photon counts (nlos_rs.sensor.simulate) stay integers; radiometric values are float32."""
     t = np.asarray(transient)
-    t = t.sum(-1, dtype=np.int64) if t.dtype.kind in "iu" else t.sum(-1, dtype=np.float64).astype(np.float32)
+    if t.dtype.kind in "iu":
+        t = t.sum(-1, dtype=np.int64)
+    elif t.shape[-1] == 1 and t.dtype == np.float32:
+        t = t[..., 0]  # one channel: its float64 sum cast back to float32 is itself
+    else:
+        t = t.sum(-1, dtype=np.float64).astype(np.float32)
     return np.ascontiguousarray(np.transpose(t, (4, 3, 2, 1, 0) if exhaustive else (2, 1, 0)))
 
 

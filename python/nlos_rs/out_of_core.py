@@ -57,8 +57,10 @@ def render_to_file(scene, path: Union[str, os.PathLike], spp: Optional[int] = No
                 parts = distributed.compute_parts(src, plan, opts, (y0 * w, y1 * w), client=c)
                 t, _ = _core.assemble(local, parts, **opts)
                 del parts
-                tile = np.asarray(t).reshape((y1 - y0,) + tuple(plan["transient_shape"][1:]))
-                f["H"][pad:, ..., y0:y1] = io.tal_H(tile, exhaustive)
+                tile = io.tal_H(np.asarray(t).reshape((y1 - y0,) + tuple(plan["transient_shape"][1:])), exhaustive)
+                del t
+                f["H"][pad:, ..., y0:y1] = tile
+                del tile
                 if bar is not None:
                     bar(y1, h)
     finally:
