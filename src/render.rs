@@ -20,6 +20,10 @@ use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 /// Samples per random stream (and per cancellation check).
 pub const BLOCK: u64 = 256;
 
+/// Adaptive sampling judges a pixel's error only after this many samples (a variance estimated
+/// from fewer misses rare bright paths too often).
+pub const ADAPTIVE_MIN_SAMPLES: u64 = 4 * BLOCK;
+
 /// Options of one render.
 #[derive(Clone, Debug)]
 pub struct RenderOptions {
@@ -35,6 +39,26 @@ pub struct RenderOptions {
     pub kernel: Option<TemporalKernel>,
     /// Largest output (bytes) the render may allocate; `None`: 80 % of the memory available.
     pub max_memory: Option<u64>,
+    /// Also estimate each transient bin's variance of the mean ([`Rendered::variance`]).
+    pub variance: bool,
+    /// Adaptive sampling: each pixel takes blocks of samples until the relative standard error of
+    /// its total is at most this (then `spp` is the most it may take).
+    pub target_rel_error: Option<f64>,
+}
+
+impl Default for RenderOptions {
+    fn default() -> Self {
+        Self {
+            spp: None,
+            seed: 0,
+            threads: None,
+            mono: true,
+            kernel: None,
+            max_memory: None,
+            variance: false,
+            target_rel_error: None,
+        }
+    }
 }
 
 /// Memory this process may still use: `MemAvailable` of /proc/meminfo where there is one.
@@ -65,6 +89,10 @@ pub struct Rendered {
     pub transient: Vec<f32>,
     /// Its shape.
     pub transient_shape: Vec<usize>,
+    /// With [`RenderOptions::variance`]: each transient value's variance of the mean, same shape.
+    pub variance: Option<Vec<f32>>,
+    /// Samples each pixel took (all `spp` unless adaptive), row-major.
+    pub samples: Vec<u64>,
 }
 
 /// Shared state a caller may watch and use to cancel.
@@ -105,6 +133,10 @@ pub struct Plan {
     pub transient_shape: Vec<usize>,
     /// Shape of the steady image.
     pub steady_shape: Vec<usize>,
+    /// Per-bin variance estimates are accumulated.
+    pub variance: bool,
+    /// Adaptive sampling's target relative standard error of a pixel's total.
+    pub target_rel_error: Option<f64>,
 }
 
 impl Plan {
@@ -135,6 +167,22 @@ impl Plan {
             }
         }
         film.check_kernel()?;
+        if opts.variance && spp < 2 {
+            return Err(NlosError::prop(
+                "render",
+                "return_variance",
+                "a variance needs at least 2 samples per scan point",
+            ));
+        }
+        if let Some(e) = opts.target_rel_error
+            && !(e > 0.0 && e.is_finite())
+        {
+            return Err(NlosError::prop(
+                "render",
+                "target_rel_error",
+                format!("must be a positive number, got {e}"),
+            ));
+        }
         let c = if opts.mono { 1 } else { 3 };
         // The whole output's size must be a number before anything multiplies its dimensions.
         let transient_shape = output_shape(&film, c);
@@ -151,7 +199,13 @@ impl Plan {
         }
         let pixel_len = film.laser_slots() * film.slot_len(c);
         let pixels = film.width * film.height;
-        let chunks = chunks_per_pixel(pixels as u64, spp, (pixel_len * 4) as u64);
+        // Variance and adaptive sampling follow each pixel's samples in order: one chunk.
+        let whole = opts.variance || opts.target_rel_error.is_some();
+        let chunks = if whole {
+            1
+        } else {
+            chunks_per_pixel(pixels as u64, spp, (pixel_len * 4) as u64)
+        };
         Ok(Self {
             transient_shape,
             steady_shape: vec![film.height, film.width, c],
@@ -163,6 +217,8 @@ impl Plan {
             chunks,
             per_chunk: spp.div_ceil(BLOCK).div_ceil(chunks) * BLOCK,
             pixel_len,
+            variance: opts.variance,
+            target_rel_error: opts.target_rel_error,
         })
     }
 
@@ -187,6 +243,22 @@ impl Plan {
             ));
         }
         Ok(())
+    }
+
+    /// Adaptive sampling's stopping rule after `n` samples whose totals have sums `t1` (of the
+    /// totals) and `t2` (of their squares): at least [`ADAPTIVE_MIN_SAMPLES`] samples, a positive
+    /// mean, and a standard error of the mean at most `target_rel_error` × the mean.
+    fn precise_enough(&self, n: u64, t1: f64, t2: f64) -> bool {
+        let Some(e) = self.target_rel_error else {
+            return false;
+        };
+        if n < ADAPTIVE_MIN_SAMPLES || !(t1 > 0.0) {
+            return false;
+        }
+        let nf = n as f64;
+        let mean = t1 / nf;
+        let s2 = ((t2 - nf * mean * mean) / (nf - 1.0)).max(0.0);
+        (s2 / nf).sqrt() <= e * mean
     }
 
     /// Samples [first, end) of chunk `k`.
@@ -214,25 +286,47 @@ pub struct Part {
 /// Render `scene`.
 pub fn render(scene: &Scene, opts: &RenderOptions, monitor: &Monitor) -> Result<Rendered> {
     let plan = Plan::new(scene, opts)?;
-    plan.check_memory(opts, plan.bytes(plan.pixels), "the transient")?;
+    let copies = if plan.variance { 2 } else { 1 };
+    plan.check_memory(
+        opts,
+        plan.bytes(plan.pixels).saturating_mul(copies),
+        "the transient (and its variance)",
+    )?;
     pool(opts.threads)?.install(|| {
         with_tracer!(scene, opts, monitor, |tracer| {
             let job = Sampling::new(tracer, &plan, monitor);
             if plan.chunks == 1 {
                 // Each pixel accumulates in place, in sample order.
-                let mut transient = vec![0.0f32; plan.pixels * plan.pixel_len];
-                let mut steady = vec![0.0f32; plan.pixels * plan.channels];
+                let (len, c) = (plan.pixel_len, plan.channels);
+                let mut transient = vec![0.0f32; plan.pixels * len];
+                let mut steady = vec![0.0f32; plan.pixels * c];
+                let mut variance = vec![0.0f32; if plan.variance { plan.pixels * len } else { 0 }];
+                let mut samples = vec![plan.spp; plan.pixels];
+                let mut sqs: Vec<Option<&mut [f32]>> = if plan.variance {
+                    variance.chunks_mut(len).map(Some).collect()
+                } else {
+                    (0..plan.pixels).map(|_| None).collect()
+                };
                 transient
-                    .par_chunks_mut(plan.pixel_len)
-                    .zip(steady.par_chunks_mut(plan.channels))
+                    .par_chunks_mut(len)
+                    .zip(steady.par_chunks_mut(c))
+                    .zip(samples.par_iter_mut())
+                    .zip(sqs.par_iter_mut())
                     .enumerate()
-                    .try_for_each(|(pixel, (buf, st))| {
+                    .try_for_each(|(pixel, (((buf, st), n), sq))| {
                         let mut sum = [0.0f64; 3];
-                        job.trace(pixel, 0, plan.spp, buf, &mut sum)?;
-                        normalise(&plan, buf, &sum, st);
+                        *n = job.trace(pixel, 0, plan.spp, buf, &mut sum, sq.as_deref_mut())?;
+                        if let Some(sq) = sq.as_deref_mut() {
+                            variance_of_mean(buf, sq, *n);
+                        }
+                        normalise(&plan, buf, &sum, st, *n);
                         Ok(())
                     })?;
-                Ok(rendered(&plan, transient, steady))
+                drop(sqs);
+                let mut out = rendered(&plan, transient, steady);
+                out.variance = plan.variance.then_some(variance);
+                out.samples = samples;
+                Ok(out)
             } else {
                 let part = job.part(0..plan.pixels, 0..plan.chunks)?;
                 let (transient, steady) = assemble(&plan, &[part])?;
@@ -240,6 +334,17 @@ pub fn render(scene: &Scene, opts: &RenderOptions, monitor: &Monitor) -> Result<
             }
         })
     })
+}
+
+/// Turn a pixel's per-bin sums of squared per-sample values `sq` into the variance of the mean,
+/// given its sums `buf` over `n` samples: s²/n with s² = (Σx² − n·x̄²)/(n − 1).
+fn variance_of_mean(buf: &[f32], sq: &mut [f32], n: u64) {
+    let n = n as f64;
+    for (v, &s) in sq.iter_mut().zip(buf) {
+        let mean = s as f64 / n;
+        let s2 = ((*v as f64 - n * mean * mean) / (n - 1.0)).max(0.0);
+        *v = (s2 / n) as f32;
+    }
 }
 
 /// Render the chunks `chunks` of the pixels `pixels` of `scene` (a worker's task); the part's
@@ -270,6 +375,17 @@ pub fn render_part(
                 "{chunks:?} is not a run of the {} chunks per pixel",
                 plan.chunks
             ),
+        ));
+    }
+    if plan.variance || plan.target_rel_error.is_some() {
+        return Err(NlosError::prop(
+            "render",
+            if plan.variance {
+                "return_variance"
+            } else {
+                "target_rel_error"
+            },
+            "is for nlos_rs.render (one process), not for renders in parts",
         ));
     }
     let n = (pixels.len() as u64 * (chunks.end - chunks.start)) as usize;
@@ -336,6 +452,7 @@ pub fn assemble(plan: &Plan, parts: &[Part]) -> Result<(Vec<f32>, Vec<f32>)> {
             &mut transient[j * len..(j + 1) * len],
             sum,
             &mut steady[j * c..(j + 1) * c],
+            plan.spp,
         );
     }
     Ok((transient, steady))
@@ -348,12 +465,14 @@ fn rendered(plan: &Plan, transient: Vec<f32>, steady: Vec<f32>) -> Rendered {
         steady_shape: plan.steady_shape.clone(),
         transient,
         transient_shape: plan.transient_shape.clone(),
+        variance: None,
+        samples: vec![plan.spp; plan.pixels],
     }
 }
 
-/// Divide a pixel's sums by spp; exhaustive steady images average the laser points.
-fn normalise(plan: &Plan, buf: &mut [f32], sum: &[f64; 3], st: &mut [f32]) {
-    let inv_spp = 1.0 / plan.spp as f64;
+/// Divide a pixel's sums by its `n` samples; exhaustive steady images average the laser points.
+fn normalise(plan: &Plan, buf: &mut [f32], sum: &[f64; 3], st: &mut [f32], n: u64) {
+    let inv_spp = 1.0 / n as f64;
     for v in buf.iter_mut() {
         *v = (*v as f64 * inv_spp) as f32;
     }
@@ -399,7 +518,10 @@ impl<'a, T: Tracer> Sampling<'a, T> {
         }
     }
 
-    /// Samples [first, end) of `pixel`, accumulated into its transient `buf` and steady `sum`.
+    /// Samples [first, end) of `pixel`, accumulated into its transient `buf` and steady `sum`,
+    /// and each sample's squared per-bin values into `sq` if given. With adaptive sampling it stops
+    /// after the first block at which the pixel's total is known well enough ([`Plan`]); it
+    /// returns the samples taken.
     fn trace(
         &self,
         pixel: usize,
@@ -407,28 +529,15 @@ impl<'a, T: Tracer> Sampling<'a, T> {
         end: u64,
         buf: &mut [f32],
         sum: &mut [f64; 3],
-    ) -> Result<()> {
+        mut sq: Option<&mut [f32]>,
+    ) -> Result<u64> {
         let (film, c) = (&self.plan.film, self.plan.channels);
         let slot_len = film.slot_len(c);
-        let mut splat = |s: Splat| {
-            // Nothing non-finite reaches the film (an overflowing product of extreme
-            // but valid parameters is dropped, not spread as Inf or NaN).
-            if !s.value.is_finite() || !s.opl.is_finite() {
-                return;
-            }
-            for (k, acc) in sum.iter_mut().enumerate().take(c) {
-                *acc += s.value[k] as f64;
-            }
-            let slot = &mut buf[s.slot * slot_len..(s.slot + 1) * slot_len];
-            match &film.phasor {
-                Some(ph) => ph.put(s.opl - film.start_opl, s.value[0], slot),
-                None => self.splatter.splat(s.opl, |bin, w| {
-                    for k in 0..c {
-                        slot[bin * c + k] += s.value[k] * w;
-                    }
-                }),
-            }
-        };
+        // This sample's values (for the squares) and the indices it touched.
+        let mut cur = vec![0.0f32; if sq.is_some() { buf.len() } else { 0 }];
+        let mut touched: Vec<usize> = Vec::new();
+        // Moments of the per-sample totals, for adaptive sampling.
+        let (mut t1, mut t2) = (0.0f64, 0.0f64);
         let cancel = &self.monitor.cancel;
         let mut start = first;
         while start < end {
@@ -438,15 +547,68 @@ impl<'a, T: Tracer> Sampling<'a, T> {
             let n = BLOCK.min(end - start);
             let mut rng = Sampler::new(self.plan.seed, pixel as u64, start / BLOCK);
             for _ in 0..n {
-                self.tracer.trace(pixel, &mut rng, &mut splat);
+                let mut total = 0.0f64;
+                self.tracer.trace(pixel, &mut rng, &mut |s: Splat| {
+                    // Nothing non-finite reaches the film (an overflowing product of extreme
+                    // but valid parameters is dropped, not spread as Inf or NaN).
+                    if !s.value.is_finite() || !s.opl.is_finite() {
+                        return;
+                    }
+                    for (k, acc) in sum.iter_mut().enumerate().take(c) {
+                        *acc += s.value[k] as f64;
+                        total += s.value[k] as f64;
+                    }
+                    let at = s.slot * slot_len;
+                    let slot = &mut buf[at..at + slot_len];
+                    match &film.phasor {
+                        Some(ph) => {
+                            ph.put(s.opl - film.start_opl, s.value[0], slot);
+                            if !cur.is_empty() {
+                                ph.put(
+                                    s.opl - film.start_opl,
+                                    s.value[0],
+                                    &mut cur[at..at + slot_len],
+                                );
+                                touched.extend(at..at + slot_len);
+                            }
+                        }
+                        None => self.splatter.splat(s.opl, |bin, w| {
+                            for k in 0..c {
+                                let v = s.value[k] * w;
+                                slot[bin * c + k] += v;
+                                if let Some(x) = cur.get_mut(at + bin * c + k) {
+                                    if *x == 0.0 {
+                                        touched.push(at + bin * c + k);
+                                    }
+                                    *x += v;
+                                }
+                            }
+                        }),
+                    }
+                });
+                if let Some(sq) = sq.as_deref_mut() {
+                    // A sample's value in a bin is the sum of its splats there.
+                    for &i in &touched {
+                        sq[i] += cur[i] * cur[i];
+                        cur[i] = 0.0;
+                    }
+                    touched.clear();
+                }
+                t1 += total;
+                t2 += total * total;
                 if cancel.load(Ordering::Relaxed) {
                     return Err(NlosError::Interrupted);
                 }
             }
             self.monitor.done.fetch_add(n, Ordering::Relaxed);
             start += n;
+            if self.plan.precise_enough(start - first, t1, t2) {
+                // The samples not taken count as done for progress.
+                self.monitor.done.fetch_add(end - start, Ordering::Relaxed);
+                break;
+            }
         }
-        Ok(())
+        Ok(start - first)
     }
 
     /// Every (pixel, chunk) of the ranges in parallel, each into its own slice of the part.
@@ -468,7 +630,7 @@ impl<'a, T: Tracer> Sampling<'a, T> {
                 let pixel = first_pixel + task / k as usize;
                 let (first, end) = self.plan.chunk_samples(first_chunk + task as u64 % k);
                 let mut sum = [0.0f64; 3];
-                self.trace(pixel, first, end, buf, &mut sum)?;
+                self.trace(pixel, first, end, buf, &mut sum, None)?;
                 st.copy_from_slice(&sum);
                 Ok(())
             })?;

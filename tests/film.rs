@@ -48,6 +48,13 @@ fn kernels_conserve_energy_inside_the_window() {
         TemporalKernel::Gaussian(2.0),
         TemporalKernel::Epanechnikov(0.7),
         TemporalKernel::Epanechnikov(3.0),
+        TemporalKernel::Triangular(0.4),
+        TemporalKernel::Triangular(2.2),
+        TemporalKernel::Biweight(1.3),
+        TemporalKernel::Triweight(0.9),
+        TemporalKernel::Triweight(4.5),
+        TemporalKernel::Cosine(0.6),
+        TemporalKernel::Cosine(3.3),
     ] {
         let f = film(k).splatter();
         for _ in 0..2000 {
@@ -81,33 +88,69 @@ fn gaussian_weights_are_bin_integrals_of_the_truncated_density() {
 }
 
 #[test]
-fn epanechnikov_weights_are_exact_on_its_support() {
+fn compact_kernel_weights_are_bin_integrals_of_their_density() {
+    // Each kernel's density on v = u/b ∈ [−1, 1] (Jarabo et al. 2014), integrated numerically here
+    // and in closed form by the splatter.
+    type Kernel = (fn(f64) -> TemporalKernel, fn(f64) -> f64);
+    let densities: [Kernel; 5] = [
+        (TemporalKernel::Epanechnikov, |v| 0.75 * (1.0 - v * v)),
+        (TemporalKernel::Triangular, |v| 1.0 - v.abs()),
+        (TemporalKernel::Biweight, |v| {
+            15.0 / 16.0 * (1.0 - v * v).powi(2)
+        }),
+        (TemporalKernel::Triweight, |v| {
+            35.0 / 32.0 * (1.0 - v * v).powi(3)
+        }),
+        (TemporalKernel::Cosine, |v| {
+            std::f64::consts::FRAC_PI_4 * (std::f64::consts::FRAC_PI_2 * v).cos()
+        }),
+    ];
     let (b, x) = (2.5, 50.8);
-    let f = film(TemporalKernel::Epanechnikov(b)).splatter();
-    let w = weights(&f, 1.0 + 0.01 * x);
-    let pdf = |t: f64| {
-        let u = (t - x) / b;
-        if u.abs() <= 1.0 {
-            0.75 / b * (1.0 - u * u)
-        } else {
-            0.0
+    for (kernel, k) in densities {
+        let f = film(kernel(b)).splatter();
+        let w = weights(&f, 1.0 + 0.01 * x);
+        let pdf = |t: f64| {
+            let v = (t - x) / b;
+            if v.abs() <= 1.0 { k(v) / b } else { 0.0 }
+        };
+        for (j, wj) in w.iter().enumerate().take(57).skip(45) {
+            let expect = integrate(pdf, j as f64, j as f64 + 1.0);
+            assert!(
+                (wj - expect).abs() < 1e-6,
+                "{:?} bin {j}: {wj} vs {expect}",
+                kernel(b)
+            );
         }
-    };
-    for (j, wj) in w.iter().enumerate().take(57).skip(45) {
-        let expect = integrate(pdf, j as f64, j as f64 + 1.0);
-        assert!((wj - expect).abs() < 1e-6, "bin {j}: {wj} vs {expect}");
+        assert_eq!(w[47], 0.0); // 50.8 - 2.5 = 48.3: bin 47 is outside the support
+        assert!(w[48] > 0.0 && w[53] > 0.0 && w[54] == 0.0);
     }
-    assert_eq!(w[47], 0.0); // 50.8 - 2.5 = 48.3: bin 47 is outside the support
-    assert!(w[48] > 0.0 && w[53] > 0.0 && w[54] == 0.0);
 }
 
 #[test]
 fn kernel_parameters_are_validated() {
-    assert!(TemporalKernel::from_params("f", Some(1.0), Some(1.0)).is_err());
-    assert!(TemporalKernel::from_params("f", Some(0.0), None).is_err());
-    assert!(TemporalKernel::from_params("f", None, Some(-1.0)).is_err());
+    assert!(TemporalKernel::from_params("f", None, Some(1.0), Some(1.0)).is_err());
+    assert!(TemporalKernel::from_params("f", None, Some(0.0), None).is_err());
+    assert!(TemporalKernel::from_params("f", None, None, Some(-1.0)).is_err());
     assert_eq!(
-        TemporalKernel::from_params("f", None, None).unwrap(),
+        TemporalKernel::from_params("f", Some("cosine"), None, Some(2.0)).unwrap(),
+        TemporalKernel::Cosine(2.0)
+    );
+    assert_eq!(
+        TemporalKernel::from_params("f", None, None, Some(2.0)).unwrap(),
+        TemporalKernel::Epanechnikov(2.0)
+    );
+    for (name, sigma, bandwidth, key) in [
+        ("gaussian", None, Some(1.0), "kernel_sigma"),
+        ("triweight", Some(1.0), None, "kernel_bandwidth"),
+        ("biweight", None, None, "kernel_bandwidth"),
+        ("box", None, Some(1.0), "kernel_bandwidth"),
+        ("parabolic", None, Some(1.0), "kernel"),
+    ] {
+        let e = TemporalKernel::from_params("f", Some(name), sigma, bandwidth).unwrap_err();
+        assert!(e.to_string().contains(key), "{name}: {e}");
+    }
+    assert_eq!(
+        TemporalKernel::from_params("f", None, None, None).unwrap(),
         TemporalKernel::Box
     );
 }

@@ -152,9 +152,7 @@ fn bit_identical_whatever_the_thread_count() {
                     spp: Some(2000),
                     seed: 3,
                     threads: Some(threads),
-                    mono: true,
-                    kernel: None,
-                    max_memory: None,
+                    ..Default::default()
                 },
                 &Monitor::default(),
             )
@@ -180,8 +178,7 @@ fn steady_is_the_time_integral_when_the_window_holds_everything() {
             seed: 0,
             threads: None,
             mono: false,
-            kernel: None,
-            max_memory: None,
+            ..Default::default()
         },
         &Monitor::default(),
     )
@@ -212,9 +209,7 @@ fn cancellation_stops_the_render() {
             spp: Some(100_000),
             seed: 0,
             threads: None,
-            mono: true,
-            kernel: None,
-            max_memory: None,
+            ..Default::default()
         },
         &m,
     );
@@ -238,9 +233,7 @@ fn exhaustive_layout_and_uv() {
             spp: Some(64),
             seed: 0,
             threads: None,
-            mono: true,
-            kernel: None,
-            max_memory: None,
+            ..Default::default()
         },
         &Monitor::default(),
     )

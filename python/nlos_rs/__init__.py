@@ -144,12 +144,16 @@ def render(
     progress: bool = True,
     variant: str = "mono",
     integrator: Optional[str] = None,
+    kernel: Optional[str] = None,
     kernel_sigma: Optional[float] = None,
     kernel_bandwidth: Optional[float] = None,
     hgrs_max_iterations: Optional[int] = None,
     hgrs_estimator: Optional[str] = None,
     max_memory: Union[int, str, None] = None,
-) -> Tuple[np.ndarray, np.ndarray]:
+    return_variance: bool = False,
+    target_rel_error: Optional[float] = None,
+    max_spp: Optional[int] = None,
+) -> Tuple[np.ndarray, ...]:
     """Render an NLOS capture; returns ``(steady, transient)`` as float32 arrays.
 
     Shapes follow mitransient: steady ``(H, W, C)``; transient ``(H, W, T, C)``, or for an
@@ -161,8 +165,18 @@ def render(
     ``integrator`` switches the scene's integrator by name (``"transient_nlos_path"`` or
     ``"transient_nlos_path_rs"``, Hidden Geometry Rejection Sampling, with ``hgrs_max_iterations``
     and ``hgrs_estimator`` = ``"resampled"`` (unbiased, default) or ``"rejection"`` (as the thesis
-    publishes it, biased)) keeping its other parameters. ``kernel_sigma`` (Gaussian) or
-    ``kernel_bandwidth`` (Epanechnikov), in time bins, override the film's temporal kernel.
+    publishes it, biased)) keeping its other parameters.
+
+    Temporal kernel (overrides the film's): ``kernel`` = ``"box"``, ``"gaussian"`` (width
+    ``kernel_sigma``) or ``"epanechnikov"``, ``"triangular"``, ``"biweight"``, ``"triweight"``,
+    ``"cosine"`` (half-width ``kernel_bandwidth``), widths in time bins. Without ``kernel``,
+    ``kernel_sigma`` alone means Gaussian and ``kernel_bandwidth`` alone Epanechnikov.
+
+    ``return_variance=True`` returns ``(steady, transient, variance)``: each transient value's
+    variance of the mean, estimated from the per-sample values. ``target_rel_error=e`` samples each
+    scan point in blocks of 256 until the standard error of its total is at most ``e`` times the
+    total (after at least 1024 samples), or ``max_spp`` samples (default: ``spp``, or the scene's
+    ``sample_count``); deterministic for a seed. Both render each scan point in one task.
 
     The output's size is checked before it is allocated: beyond ``max_memory`` (bytes, or a string
     such as ``"512MiB"``; default 80 % of the memory available) the render raises ``SceneError``.
@@ -174,6 +188,10 @@ def render(
         if not isinstance(v, (int, np.integer)) or isinstance(v, bool) or not lo <= v < 2**64:
             raise SceneError(f"plugin 'render': key '{name}': must be an integer in [{lo}, 2^64), got {v!r}")
 
+    if max_spp is not None:
+        if target_rel_error is None:
+            raise SceneError("plugin 'render': key 'max_spp': is the budget of target_rel_error; set that too (or use spp)")
+        spp = max_spp
     for name, v, lo in (("spp", spp, 1), ("threads", threads, 1), ("seed", seed, 0)):
         if v is not None:
             integer(name, v, lo)
@@ -184,6 +202,10 @@ def render(
         scene = scene.with_integrator(name, hgrs_max_iterations, hgrs_estimator)
     bar = _Progress(progress)
     try:
-        return _core.render(scene, spp, int(seed), threads, _VARIANTS[key], bar, kernel_sigma, kernel_bandwidth, limit)
+        options = {"spp": spp, "seed": int(seed), "threads": threads, "mono": _VARIANTS[key], "kernel": kernel,
+                   "kernel_sigma": kernel_sigma, "kernel_bandwidth": kernel_bandwidth, "max_memory": limit,
+                   "return_variance": bool(return_variance), "target_rel_error": target_rel_error}
+        steady, transient, variance = _core.render(scene, options, bar)
+        return (steady, transient, variance) if return_variance else (steady, transient)
     finally:
         bar.close()

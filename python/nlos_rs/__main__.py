@@ -95,11 +95,14 @@ def cmd_render(args: argparse.Namespace, scene: "nlos_rs.Scene", out: Path, figu
     if args.integrator:
         scene = scene.with_integrator(args.integrator)
     spad = nlos_rs.sensor.Spad.from_string(args.spad) if getattr(args, "spad", None) is not None else None
-    kernel = {"temporal_kernel": ["gaussian", args.kernel_sigma] if args.kernel_sigma else ["epanechnikov", args.kernel_bandwidth]}
-    info = kernel if (args.kernel_sigma or args.kernel_bandwidth) else {}
+    info = {}
+    if args.kernel or args.kernel_sigma or args.kernel_bandwidth:
+        name = args.kernel or ("gaussian" if args.kernel_sigma else "epanechnikov")
+        info["temporal_kernel"] = [name, args.kernel_sigma or args.kernel_bandwidth or 0.0]
     t = time.perf_counter()
     steady, transient = nlos_rs.render(scene, spp=args.spp, seed=args.seed, threads=args.threads, progress=not args.quiet,
-                                       variant=args.variant, kernel_sigma=args.kernel_sigma, kernel_bandwidth=args.kernel_bandwidth)
+                                       variant=args.variant, kernel=args.kernel, kernel_sigma=args.kernel_sigma,
+                                       kernel_bandwidth=args.kernel_bandwidth)
     seconds = time.perf_counter() - t
     bins, dt, t0 = scene.temporal
     if spad is not None:
@@ -136,7 +139,10 @@ def main(argv=None) -> int:
     common.add_argument("--quiet", action="store_true", help="no progress bar")
     common.add_argument("--integrator", choices=["transient_nlos_path", "transient_nlos_path_rs"], help="switch the scene's integrator")
     common.add_argument("--kernel-sigma", type=float, help="Gaussian temporal kernel, sigma in bins")
-    common.add_argument("--kernel-bandwidth", type=float, help="Epanechnikov temporal kernel, bandwidth in bins")
+    common.add_argument("--kernel-bandwidth", type=float,
+                        help="temporal kernel half-width in bins (Epanechnikov unless --kernel names another)")
+    common.add_argument("--kernel", choices=["box", "gaussian", "epanechnikov", "triangular", "biweight", "triweight", "cosine"],
+                        help="temporal kernel (gaussian takes --kernel-sigma, the others --kernel-bandwidth)")
     demo = sub.add_parser("demo", parents=[common], help="render the built-in Z scene (64x64 x 300 bins) and write PNGs + arrays")
     demo.add_argument("--out", default="nlos_rs_demo", help="output folder (default: nlos_rs_demo)")
     rend = sub.add_parser("render", parents=[common], help="render an XML scene or a built-in scene name")

@@ -76,10 +76,10 @@ def _load(src: Source) -> Scene:
     raise ValueError(f"unknown scene source {kind!r}")
 
 
-def _options(spp, seed, variant, kernel_sigma, kernel_bandwidth) -> Dict[str, Any]:
+def _options(spp, seed, variant, kernel, kernel_sigma, kernel_bandwidth) -> Dict[str, Any]:
     if variant not in ("mono", "rgb"):
         raise ValueError(f"variant must be 'mono' or 'rgb', got {variant!r}")
-    return {"spp": spp, "seed": int(seed), "mono": variant == "mono", "kernel_sigma": kernel_sigma,
+    return {"spp": spp, "seed": int(seed), "mono": variant == "mono", "kernel": kernel, "kernel_sigma": kernel_sigma,
             "kernel_bandwidth": kernel_bandwidth}
 
 
@@ -103,7 +103,7 @@ def _part(src: Source, pixels: Range, chunks: Range, opts: Mapping[str, Any], th
             from distributed import get_worker
 
             threads = get_worker().state.nthreads
-    t, s = _core.render_part(load(src), pixels, chunks, threads=threads, **opts)
+    t, s = _core.render_part(load(src), pixels, chunks, {**opts, "threads": threads})
     return pixels, chunks, t, s
 
 
@@ -156,8 +156,8 @@ def compute_parts(src: Source, plan: Mapping[str, Any], opts: Mapping[str, Any],
 
 
 def render(scene, spp: Optional[int] = None, seed: int = 0, client=None, variant: str = "mono",
-           kernel_sigma: Optional[float] = None, kernel_bandwidth: Optional[float] = None, progress: bool = True,
-           tasks: Optional[int] = None) -> Tuple[np.ndarray, np.ndarray]:
+           kernel: Optional[str] = None, kernel_sigma: Optional[float] = None,
+           kernel_bandwidth: Optional[float] = None, progress: bool = True, tasks: Optional[int] = None) -> Tuple[np.ndarray, np.ndarray]:
     """Render on a Dask cluster: ``(steady, transient)``, equal bit for bit to
     ``nlos_rs.render(scene, spp=spp, seed=seed, variant=variant, ...)``.
 
@@ -168,9 +168,9 @@ def render(scene, spp: Optional[int] = None, seed: int = 0, client=None, variant
     """
     src = source(scene)
     local = scene if isinstance(scene, Scene) else load(src)
-    opts = _options(spp, seed, variant, kernel_sigma, kernel_bandwidth)
-    plan = _core.render_plan(local, **opts)
-    _core.render_check_memory(local, plan["pixels"], max_memory=None, **opts)
+    opts = _options(spp, seed, variant, kernel, kernel_sigma, kernel_bandwidth)
+    plan = _core.render_plan(local, opts)
+    _core.render_check_memory(local, plan["pixels"], opts)
     bar = _bar(progress, "nlos_rs (dask)")
     try:
         with _client(client) as c:
@@ -178,7 +178,7 @@ def render(scene, spp: Optional[int] = None, seed: int = 0, client=None, variant
     finally:
         if bar is not None:
             bar.close()
-    t, s = _core.assemble(local, parts, **opts)
+    t, s = _core.assemble(local, parts, opts)
     return s.reshape(plan["steady_shape"]), t.reshape(plan["transient_shape"])
 
 

@@ -19,8 +19,8 @@ _COPIES = 5
 
 def render_to_file(scene, path: Union[str, os.PathLike], spp: Optional[int] = None, seed: int = 0,
                    max_memory: Union[int, str, None] = None, client=None, variant: str = "mono",
-                   kernel_sigma: Optional[float] = None, kernel_bandwidth: Optional[float] = None,
-                   progress: bool = True, zero_t_start: bool = False, compression_level: int = 0,
+                   kernel: Optional[str] = None, kernel_sigma: Optional[float] = None,
+                   kernel_bandwidth: Optional[float] = None, progress: bool = True, zero_t_start: bool = False, compression_level: int = 0,
                    scene_info: Optional[Dict[str, Any]] = None) -> None:
     """Render ``scene`` and write it as a tal HDF5 capture at ``path``, a run of sensor rows at a time,
     keeping memory below ``max_memory`` (bytes or a string like ``"512MiB"``; default 80 % of the
@@ -30,8 +30,8 @@ def render_to_file(scene, path: Union[str, os.PathLike], spp: Optional[int] = No
 
     src = distributed.source(scene)
     local = scene if isinstance(scene, Scene) else distributed.load(src)
-    opts = distributed._options(spp, seed, variant, kernel_sigma, kernel_bandwidth)
-    plan = _core.render_plan(local, **opts)
+    opts = distributed._options(spp, seed, variant, kernel, kernel_sigma, kernel_bandwidth)
+    plan = _core.render_plan(local, opts)
     limit = _core.memory_limit(None if max_memory is None else _bytes(max_memory))
     w, h = local.film_size
     row = plan["pixel_len"] * 4 * w
@@ -55,7 +55,7 @@ def render_to_file(scene, path: Union[str, os.PathLike], spp: Optional[int] = No
             for y0 in range(0, h, rows):
                 y1 = min(h, y0 + rows)
                 parts = distributed.compute_parts(src, plan, opts, (y0 * w, y1 * w), client=c)
-                t, _ = _core.assemble(local, parts, **opts)
+                t, _ = _core.assemble(local, parts, opts)
                 del parts
                 tile = io.tal_H(np.asarray(t).reshape((y1 - y0,) + tuple(plan["transient_shape"][1:])), exhaustive)
                 del t

@@ -70,8 +70,17 @@ impl Film {
                 None
             })
         };
-        let kernel =
-            TemporalKernel::from_params(&p.plugin, opt("kernel_sigma")?, opt("kernel_bandwidth")?)?;
+        let name = if p.has("kernel") {
+            Some(p.string("kernel", "")?)
+        } else {
+            None
+        };
+        let kernel = TemporalKernel::from_params(
+            &p.plugin,
+            name.as_deref(),
+            opt("kernel_sigma")?,
+            opt("kernel_bandwidth")?,
+        )?;
         let phasor = if phasor {
             Some(Phasor::from_props(p, temporal_bins, bin_width_opl)?)
         } else {

@@ -13,44 +13,128 @@ use crate::error::{NlosError, Result};
 /// The Gaussian kernel is truncated at this many standard deviations and renormalised.
 pub const GAUSSIAN_CUTOFF_SIGMAS: f64 = 4.0;
 
-/// The temporal kernel of a film.
+/// The temporal kernel of a film. Every kernel but the Gaussian has compact support [−b, b]
+/// (b in bins); the shapes are those Jarabo et al. 2014 (§5) compare, written for v = u/b.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum TemporalKernel {
     /// A hard histogram (mitransient).
     Box,
     /// Gaussian with standard deviation σ (in bins), truncated at ±4σ.
     Gaussian(f64),
-    /// Epanechnikov K(u) = 3/(4b)·(1 − (u/b)²) on [−b, b] (b in bins).
+    /// Epanechnikov K(v) = 3/4·(1 − v²).
     Epanechnikov(f64),
+    /// Triangular K(v) = 1 − |v|.
+    Triangular(f64),
+    /// Biweight (quartic) K(v) = 15/16·(1 − v²)².
+    Biweight(f64),
+    /// Triweight K(v) = 35/32·(1 − v²)³.
+    Triweight(f64),
+    /// Cosine K(v) = π/4·cos(πv/2).
+    Cosine(f64),
 }
 
+/// Names of the kernels with a bandwidth, as `kernel=` takes them.
+pub const BANDWIDTH_KERNELS: [&str; 5] = [
+    "epanechnikov",
+    "triangular",
+    "biweight",
+    "triweight",
+    "cosine",
+];
+
 impl TemporalKernel {
-    /// Kernel from `kernel_sigma` / `kernel_bandwidth` values (at most one may be set).
-    pub fn from_params(plugin: &str, sigma: Option<f64>, bandwidth: Option<f64>) -> Result<Self> {
-        match (sigma, bandwidth) {
-            (Some(_), Some(_)) => Err(NlosError::prop(
-                plugin,
-                "kernel_bandwidth",
-                "set kernel_sigma (Gaussian) or kernel_bandwidth (Epanechnikov), not both",
-            )),
-            (Some(s), None) if s > 0.0 && s.is_finite() => Ok(Self::Gaussian(s)),
-            (None, Some(b)) if b > 0.0 && b.is_finite() => Ok(Self::Epanechnikov(b)),
-            (Some(s), None) => Err(NlosError::prop(
+    /// Kernel from the `kernel` name and `kernel_sigma` / `kernel_bandwidth` values. Without a
+    /// name, `kernel_sigma` means Gaussian and `kernel_bandwidth` Epanechnikov (the thesis' two).
+    pub fn from_params(
+        plugin: &str,
+        name: Option<&str>,
+        sigma: Option<f64>,
+        bandwidth: Option<f64>,
+    ) -> Result<Self> {
+        let width = |key: &str, v: f64| {
+            if v > 0.0 && v.is_finite() {
+                Ok(v)
+            } else {
+                Err(NlosError::prop(
+                    plugin,
+                    key,
+                    format!("must be positive, got {v}"),
+                ))
+            }
+        };
+        let name = match (name, sigma, bandwidth) {
+            (_, Some(_), Some(_)) => {
+                return Err(NlosError::prop(
+                    plugin,
+                    "kernel_bandwidth",
+                    "set kernel_sigma (Gaussian) or kernel_bandwidth (the other kernels), not both",
+                ));
+            }
+            (Some(n), _, _) => n,
+            (None, Some(_), None) => "gaussian",
+            (None, None, Some(_)) => "epanechnikov",
+            (None, None, None) => "box",
+        };
+        match (name, sigma, bandwidth) {
+            ("box", None, None) => Ok(Self::Box),
+            ("gaussian", Some(s), None) => Ok(Self::Gaussian(width("kernel_sigma", s)?)),
+            ("gaussian", _, _) => Err(NlosError::prop(
                 plugin,
                 "kernel_sigma",
-                format!("must be positive, got {s}"),
+                "the Gaussian kernel takes kernel_sigma (in bins)",
             )),
-            (None, Some(b)) => Err(NlosError::prop(
+            (n, None, Some(b)) if BANDWIDTH_KERNELS.contains(&n) => {
+                let b = width("kernel_bandwidth", b)?;
+                Ok(match n {
+                    "epanechnikov" => Self::Epanechnikov(b),
+                    "triangular" => Self::Triangular(b),
+                    "biweight" => Self::Biweight(b),
+                    "triweight" => Self::Triweight(b),
+                    _ => Self::Cosine(b),
+                })
+            }
+            (n, _, _) if n == "box" || BANDWIDTH_KERNELS.contains(&n) => Err(NlosError::prop(
                 plugin,
                 "kernel_bandwidth",
-                format!("must be positive, got {b}"),
+                format!(
+                    "the {n} kernel takes {}",
+                    if n == "box" {
+                        "no width"
+                    } else {
+                        "kernel_bandwidth (in bins), not kernel_sigma"
+                    }
+                ),
             )),
-            (None, None) => Ok(Self::Box),
+            (n, _, _) => Err(NlosError::prop(
+                plugin,
+                "kernel",
+                format!("must be 'box', 'gaussian' or one of {BANDWIDTH_KERNELS:?}, got '{n}'"),
+            )),
+        }
+    }
+
+    /// The kernel's name and width (σ or b, in bins; 0 for the box).
+    pub fn name_and_width(&self) -> (&'static str, f64) {
+        match *self {
+            Self::Box => ("box", 0.0),
+            Self::Gaussian(s) => ("gaussian", s),
+            Self::Epanechnikov(b) => ("epanechnikov", b),
+            Self::Triangular(b) => ("triangular", b),
+            Self::Biweight(b) => ("biweight", b),
+            Self::Triweight(b) => ("triweight", b),
+            Self::Cosine(b) => ("cosine", b),
         }
     }
 
     /// Cumulative distribution of the kernel at offset u (bins) from its centre.
     fn cdf(&self, u: f64) -> f64 {
+        let (_, b) = self.name_and_width();
+        let v = if b > 0.0 {
+            (u / b).clamp(-1.0, 1.0)
+        } else {
+            0.0
+        };
+        let (v2, half) = (v * v, 0.5);
         match *self {
             Self::Box => (u >= 0.0) as u8 as f64,
             Self::Gaussian(s) => {
@@ -59,19 +143,22 @@ impl TemporalKernel {
                 let phi = |z: f64| 0.5 * libm::erfc(-z / std::f64::consts::SQRT_2);
                 (phi(z) - phi(-r)) / (phi(r) - phi(-r))
             }
-            Self::Epanechnikov(b) => {
-                let v = (u / b).clamp(-1.0, 1.0);
-                0.5 + 0.75 * v - 0.25 * v * v * v
+            Self::Epanechnikov(_) => half + 0.75 * v - 0.25 * v * v2,
+            Self::Triangular(_) if v < 0.0 => half * (1.0 + v) * (1.0 + v),
+            Self::Triangular(_) => 1.0 - half * (1.0 - v) * (1.0 - v),
+            Self::Biweight(_) => half + 15.0 / 16.0 * v * (1.0 - v2 * (2.0 / 3.0 - v2 / 5.0)),
+            Self::Triweight(_) => {
+                half + 35.0 / 32.0 * v * (1.0 - v2 * (1.0 - v2 * (3.0 / 5.0 - v2 / 7.0)))
             }
+            Self::Cosine(_) => half + half * (std::f64::consts::FRAC_PI_2 * v).sin(),
         }
     }
 
     /// Half-width of the kernel's support, in bins.
     pub fn radius(&self) -> f64 {
         match *self {
-            Self::Box => 0.0,
             Self::Gaussian(s) => GAUSSIAN_CUTOFF_SIGMAS * s,
-            Self::Epanechnikov(b) => b,
+            _ => self.name_and_width().1,
         }
     }
 }

@@ -390,14 +390,10 @@ impl PyScene {
             crate::scene::Setup::Nlos(_) => "transient_nlos_path",
         }
     }
-    /// The film's temporal kernel: ('box', 0), ('gaussian', sigma) or ('epanechnikov', b), in bins.
+    /// The film's temporal kernel: ('box', 0), ('gaussian', sigma) or (name, bandwidth), in bins.
     #[getter]
     fn temporal_kernel(&self) -> (&'static str, f64) {
-        match self.get().meter.film.kernel {
-            crate::film::TemporalKernel::Box => ("box", 0.0),
-            crate::film::TemporalKernel::Gaussian(s) => ("gaussian", s),
-            crate::film::TemporalKernel::Epanechnikov(b) => ("epanechnikov", b),
-        }
+        self.get().meter.film.kernel.name_and_width()
     }
     /// The same scene under another integrator ('transient_nlos_path' or 'transient_nlos_path_rs'),
     /// keeping every other parameter.
@@ -561,35 +557,68 @@ fn load_file(py: Python<'_>, path: PathBuf, params: HashMap<String, String>) -> 
 /// A 2-D grid of 3-vectors as nested lists.
 type Grid3 = Vec<Vec<[f32; 3]>>;
 
-type Arrays<'py> = (Bound<'py, PyAny>, Bound<'py, PyAny>);
+/// Render options as the Python layer passes them: a dict of `nlos_rs.render`'s keywords.
+#[derive(FromPyObject)]
+#[pyo3(from_item_all)]
+pub(crate) struct Opts {
+    mono: bool,
+    #[pyo3(default)]
+    spp: Option<u64>,
+    #[pyo3(default)]
+    seed: u64,
+    #[pyo3(default)]
+    threads: Option<usize>,
+    #[pyo3(default)]
+    kernel: Option<String>,
+    #[pyo3(default)]
+    kernel_sigma: Option<f64>,
+    #[pyo3(default)]
+    kernel_bandwidth: Option<f64>,
+    #[pyo3(default)]
+    max_memory: Option<u64>,
+    #[pyo3(default)]
+    return_variance: bool,
+    #[pyo3(default)]
+    target_rel_error: Option<f64>,
+}
 
-/// Render with the GIL released. `progress(done, total)` is called about ten times a second;
-/// Ctrl-C cancels within a poll interval.
+impl Opts {
+    /// The core's render options.
+    pub(crate) fn core(&self) -> PyResult<RenderOptions> {
+        let kernel = match (&self.kernel, self.kernel_sigma, self.kernel_bandwidth) {
+            (None, None, None) => None,
+            (k, s, b) => Some(crate::film::TemporalKernel::from_params(
+                "render",
+                k.as_deref(),
+                s,
+                b,
+            )?),
+        };
+        Ok(RenderOptions {
+            kernel,
+            spp: self.spp,
+            seed: self.seed,
+            threads: self.threads,
+            mono: self.mono,
+            max_memory: self.max_memory,
+            variance: self.return_variance,
+            target_rel_error: self.target_rel_error,
+        })
+    }
+}
+
+/// Render with the GIL released: (steady, transient, variance or None). `progress(done, total)`
+/// is called about ten times a second; Ctrl-C cancels within a poll interval.
 #[pyfunction]
-#[pyo3(signature = (scene, spp=None, seed=0, threads=None, mono=true, progress=None, kernel_sigma=None, kernel_bandwidth=None, max_memory=None))]
-#[allow(clippy::too_many_arguments)]
+#[pyo3(signature = (scene, options, progress=None))]
 fn render<'py>(
     py: Python<'py>,
     scene: &PyScene,
-    spp: Option<u64>,
-    seed: u64,
-    threads: Option<usize>,
-    mono: bool,
+    options: Opts,
     progress: Option<Bound<'py, PyAny>>,
-    kernel_sigma: Option<f64>,
-    kernel_bandwidth: Option<f64>,
-    max_memory: Option<u64>,
-) -> PyResult<Arrays<'py>> {
+) -> PyResult<Bound<'py, PyTuple>> {
     let scene = scene.get();
-    let opts = options(
-        spp,
-        seed,
-        threads,
-        mono,
-        kernel_sigma,
-        kernel_bandwidth,
-        max_memory,
-    )?;
+    let opts = options.core()?;
     let total = total_samples(&scene, &opts);
     let monitor = Monitor::default();
     let out = interruptible(
@@ -603,34 +632,14 @@ fn render<'py>(
             None => Ok(()),
         },
     )?;
+    let shape = out.transient_shape;
     let steady = PyArray1::from_vec(py, out.steady).reshape(out.steady_shape)?;
-    let transient = PyArray1::from_vec(py, out.transient).reshape(out.transient_shape)?;
-    Ok((steady.into_any(), transient.into_any()))
-}
-
-/// The core's render options from `render`'s keyword arguments.
-#[allow(clippy::too_many_arguments)]
-fn options(
-    spp: Option<u64>,
-    seed: u64,
-    threads: Option<usize>,
-    mono: bool,
-    kernel_sigma: Option<f64>,
-    kernel_bandwidth: Option<f64>,
-    max_memory: Option<u64>,
-) -> PyResult<RenderOptions> {
-    let kernel = match (kernel_sigma, kernel_bandwidth) {
-        (None, None) => None,
-        (s, b) => Some(crate::film::TemporalKernel::from_params("render", s, b)?),
+    let transient = PyArray1::from_vec(py, out.transient).reshape(shape.clone())?;
+    let variance = match out.variance {
+        Some(v) => PyArray1::from_vec(py, v).reshape(shape)?.into_any(),
+        None => py.None().into_bound(py),
     };
-    Ok(RenderOptions {
-        kernel,
-        spp,
-        seed,
-        threads,
-        mono,
-        max_memory,
-    })
+    PyTuple::new(py, [steady.into_any(), transient.into_any(), variance])
 }
 
 /// Mitsuba-convention transforms as row-major nested lists.

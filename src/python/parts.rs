@@ -1,7 +1,7 @@
 //! Binding of a render in parts ([`crate::render::render_part`] and [`crate::render::assemble`]):
 //! what `nlos_rs.distributed` and `nlos_rs.render_to_file` send to workers and put back together.
 
-use super::{PyScene, interruptible, options};
+use super::{Opts, PyScene, interruptible};
 use crate::render::{self, Monitor, Part, Plan};
 use numpy::{PyArray1, PyReadonlyArray1};
 use pyo3::prelude::*;
@@ -10,38 +10,19 @@ use pyo3::types::PyDict;
 /// A part's arrays: transient sums (float32) and steady sums (float64).
 type PartArrays<'py> = (Bound<'py, PyArray1<f32>>, Bound<'py, PyArray1<f64>>);
 
-/// The options of a part, as `render` takes them.
-type Opts = (
-    Option<u64>,
-    u64,
-    Option<usize>,
-    bool,
-    Option<f64>,
-    Option<f64>,
-    Option<u64>,
-);
-
-fn plan_of(scene: &PyScene, o: Opts) -> PyResult<(Plan, render::RenderOptions)> {
-    let opts = options(o.0, o.1, o.2, o.3, o.4, o.5, o.6)?;
+fn plan_of(scene: &PyScene, options: &Opts) -> PyResult<(Plan, render::RenderOptions)> {
+    let opts = options.core()?;
     Ok((Plan::new(&scene.get(), &opts)?, opts))
 }
 
 /// How a render splits: pixels, chunks per pixel, floats per pixel, shapes.
 #[pyfunction]
-#[pyo3(signature = (scene, spp=None, seed=0, mono=true, kernel_sigma=None, kernel_bandwidth=None))]
 pub fn render_plan<'py>(
     py: Python<'py>,
     scene: &PyScene,
-    spp: Option<u64>,
-    seed: u64,
-    mono: bool,
-    kernel_sigma: Option<f64>,
-    kernel_bandwidth: Option<f64>,
+    options: Opts,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let (plan, _) = plan_of(
-        scene,
-        (spp, seed, None, mono, kernel_sigma, kernel_bandwidth, None),
-    )?;
+    let (plan, _) = plan_of(scene, &options)?;
     let d = PyDict::new(py);
     d.set_item("pixels", plan.pixels)?;
     d.set_item("chunks", plan.chunks)?;
@@ -59,60 +40,24 @@ pub fn memory_limit(max_memory: Option<u64>) -> u64 {
     render::memory_limit(max_memory)
 }
 
-/// Check that `pixels` pixels of the render's transient fit in `max_memory` (default: 80 % of the
-/// memory available); the `SceneError` names `render_to_file`.
+/// Check that `pixels` pixels of the render's transient fit in the options' `max_memory`
+/// (default: 80 % of the memory available); the `SceneError` names `render_to_file`.
 #[pyfunction]
-#[pyo3(signature = (scene, pixels, spp=None, seed=0, mono=true, kernel_sigma=None, kernel_bandwidth=None, max_memory=None))]
-#[allow(clippy::too_many_arguments)]
-pub fn render_check_memory(
-    scene: &PyScene,
-    pixels: usize,
-    spp: Option<u64>,
-    seed: u64,
-    mono: bool,
-    kernel_sigma: Option<f64>,
-    kernel_bandwidth: Option<f64>,
-    max_memory: Option<u64>,
-) -> PyResult<()> {
-    let o = (
-        spp,
-        seed,
-        None,
-        mono,
-        kernel_sigma,
-        kernel_bandwidth,
-        max_memory,
-    );
-    let (plan, opts) = plan_of(scene, o)?;
+pub fn render_check_memory(scene: &PyScene, pixels: usize, options: Opts) -> PyResult<()> {
+    let (plan, opts) = plan_of(scene, &options)?;
     Ok(plan.check_memory(&opts, plan.bytes(pixels), "the transient")?)
 }
 
 /// Raw sums of chunks [c0, c1) of pixels [p0, p1): (transient float32, steady float64), flat.
 #[pyfunction]
-#[pyo3(signature = (scene, pixels, chunks, spp=None, seed=0, threads=None, mono=true, kernel_sigma=None, kernel_bandwidth=None, max_memory=None))]
-#[allow(clippy::too_many_arguments)]
 pub fn render_part<'py>(
     py: Python<'py>,
     scene: &PyScene,
     pixels: (usize, usize),
     chunks: (u64, u64),
-    spp: Option<u64>,
-    seed: u64,
-    threads: Option<usize>,
-    mono: bool,
-    kernel_sigma: Option<f64>,
-    kernel_bandwidth: Option<f64>,
-    max_memory: Option<u64>,
+    options: Opts,
 ) -> PyResult<PartArrays<'py>> {
-    let opts = options(
-        spp,
-        seed,
-        threads,
-        mono,
-        kernel_sigma,
-        kernel_bandwidth,
-        max_memory,
-    )?;
+    let opts = options.core()?;
     let scene = scene.get();
     let monitor = Monitor::default();
     let part = interruptible(
@@ -139,8 +84,7 @@ pub fn render_part<'py>(
 /// The render's (transient, steady) values, flat, of the run of pixels that `parts` cover: a list
 /// of ((p0, p1), (c0, c1), transient, steady) in pixel then chunk order.
 #[pyfunction]
-#[pyo3(signature = (scene, parts, spp=None, seed=0, mono=true, kernel_sigma=None, kernel_bandwidth=None))]
-#[allow(clippy::too_many_arguments, clippy::type_complexity)]
+#[allow(clippy::type_complexity)]
 pub fn assemble<'py>(
     py: Python<'py>,
     scene: &PyScene,
@@ -150,16 +94,9 @@ pub fn assemble<'py>(
         PyReadonlyArray1<'py, f32>,
         PyReadonlyArray1<'py, f64>,
     )>,
-    spp: Option<u64>,
-    seed: u64,
-    mono: bool,
-    kernel_sigma: Option<f64>,
-    kernel_bandwidth: Option<f64>,
+    options: Opts,
 ) -> PyResult<(Bound<'py, PyArray1<f32>>, Bound<'py, PyArray1<f32>>)> {
-    let (plan, _) = plan_of(
-        scene,
-        (spp, seed, None, mono, kernel_sigma, kernel_bandwidth, None),
-    )?;
+    let (plan, _) = plan_of(scene, &options)?;
     let parts: Vec<Part> = parts
         .into_iter()
         .map(|(p, c, t, s)| {

@@ -36,7 +36,7 @@ fn temporal_filter(p: &Props, default_stddev: f64) -> Result<Option<TemporalKern
     let stddev = p.float("gaussian_stddev", default_stddev)?;
     match p.string("temporal_filter", "")?.as_str() {
         "" | "box" => Ok(None),
-        "gaussian" => TemporalKernel::from_params(plugin, Some(stddev), None)
+        "gaussian" => TemporalKernel::from_params(plugin, None, Some(stddev), None)
             .map(Some)
             .map_err(|_| NlosError::prop(plugin, "gaussian_stddev", "must be positive")),
         other => Err(NlosError::prop(

@@ -29,7 +29,11 @@ def features(t):
 # ---- temporal kernel density estimation
 
 
-@pytest.mark.parametrize("kw", [{"kernel_sigma": 2.0}, {"kernel_bandwidth": 3.0}])
+KERNELS = [{"kernel_sigma": 2.0}, {"kernel_bandwidth": 3.0}] + [
+    {"kernel": k, "kernel_bandwidth": 2.6} for k in ("triangular", "biweight", "triweight", "cosine")]
+
+
+@pytest.mark.parametrize("kw", KERNELS)
 def test_kde_conserves_each_pixels_energy(kw):
     d = z(spp=512)
     box = nlos_rs.render(d, seed=1, progress=False)[1]
@@ -45,8 +49,13 @@ FINE = 16  # sub-bins per bin of the reference histogram
 def smoothing_matrix(kind, width, n):
     """Weights taking a histogram with FINE sub-bins per bin to E[kernel bins]: a contribution in
     sub-bin i, placed uniformly inside it, gives bin j the kernel's integral over bin j."""
+    v = lambda u: np.clip(u / width, -1, 1)  # noqa: E731
     f = {"gaussian": lambda u: np.exp(-u * u / (2 * width**2)) * (np.abs(u) <= 4 * width),
-         "epanechnikov": lambda u: np.clip(1 - (u / width) ** 2, 0, None)}[kind]
+         "epanechnikov": lambda u: 1 - v(u) ** 2,
+         "triangular": lambda u: 1 - np.abs(v(u)),
+         "biweight": lambda u: (1 - v(u) ** 2) ** 2,
+         "triweight": lambda u: (1 - v(u) ** 2) ** 3,
+         "cosine": lambda u: np.cos(np.pi / 2 * v(u)) * (np.abs(u) < width)}[kind]
     u = np.linspace(-14, 14, 28 * 256 + 1)
     cdf = np.concatenate([[0.0], np.cumsum((f(u[1:]) + f(u[:-1])) / 2)])
     cdf /= cdf[-1]
@@ -60,11 +69,12 @@ def smoothing_matrix(kind, width, n):
     return m
 
 
-@pytest.mark.parametrize("kind, width", [("gaussian", 2.0), ("epanechnikov", 3.0)])
+@pytest.mark.parametrize("kind, width", [("gaussian", 2.0), ("epanechnikov", 3.0), ("triangular", 2.5),
+                                         ("biweight", 3.5), ("triweight", 4.0), ("cosine", 3.0)])
 def test_kde_shape_is_the_box_result_smoothed_by_the_bin_integrated_kernel(kind, width):
-    """E[KDE] equals a finely binned box result smoothed by the bin-integrated kernel; compared
-    across independent replicates."""
-    kw = {"kernel_sigma": width} if kind == "gaussian" else {"kernel_bandwidth": width}
+    """E[KDE] equals a finely binned box result smoothed by the bin-integrated kernel (Jarabo et
+    al. 2014's shapes, integrated numerically here); compared across independent replicates."""
+    kw = {"kernel_sigma": width} if kind == "gaussian" else {"kernel": kind, "kernel_bandwidth": width}
     d = z(width=4, height=4, spp=4096)
     fine = z(width=4, height=4, spp=4096, temporal_bins=300 * FINE, bin_width_opl=0.006 / FINE)
     box = reps(fine, n=12).sum((1, 2))
