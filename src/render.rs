@@ -20,6 +20,9 @@ use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 /// Samples per random stream (and per cancellation check).
 pub const BLOCK: u64 = 256;
 
+/// The stream key of a shared render's light samples (pixel keys are below it).
+const SHARED_STREAM: u64 = u64::MAX;
+
 /// Adaptive sampling judges a pixel's error only after this many samples (a variance estimated
 /// from fewer misses rare bright paths too often).
 pub const ADAPTIVE_MIN_SAMPLES: u64 = 4 * BLOCK;
@@ -44,6 +47,9 @@ pub struct RenderOptions {
     /// Adaptive sampling: each pixel takes blocks of samples until the relative standard error of
     /// its total is at most this (then `spp` is the most it may take).
     pub target_rel_error: Option<f64>,
+    /// The kernel's width is chosen per scan point ([`crate::film::auto_width`]); `kernel` gives
+    /// the shape.
+    pub auto_width: bool,
 }
 
 impl Default for RenderOptions {
@@ -57,6 +63,7 @@ impl Default for RenderOptions {
             max_memory: None,
             variance: false,
             target_rel_error: None,
+            auto_width: false,
         }
     }
 }
@@ -133,10 +140,16 @@ pub struct Plan {
     pub transient_shape: Vec<usize>,
     /// Shape of the steady image.
     pub steady_shape: Vec<usize>,
-    /// Per-bin variance estimates are accumulated.
+    /// Per-bin variance estimates are accumulated (asked for, or for an automatic kernel width).
     pub variance: bool,
+    /// Automatic kernel width: the kernel shape, whose width is chosen per scan point after a box
+    /// render (the plan's film has the box).
+    pub auto_kernel: Option<TemporalKernel>,
     /// Adaptive sampling's target relative standard error of a pixel's total.
     pub target_rel_error: Option<f64>,
+    /// Each sample is a light subpath shared by every pixel ([`crate::integrator::sample_reuse`]):
+    /// a chunk is a run of light samples over the whole film.
+    pub shared: bool,
 }
 
 impl Plan {
@@ -167,7 +180,18 @@ impl Plan {
             }
         }
         film.check_kernel()?;
-        if opts.variance && spp < 2 {
+        let auto_kernel = match (opts.auto_width, film.kernel) {
+            (false, _) => None,
+            (true, TemporalKernel::Box) => {
+                return Err(NlosError::prop(
+                    "render",
+                    "kernel",
+                    "an automatic width needs a kernel shape other than the box",
+                ));
+            }
+            (true, _) => Some(std::mem::replace(&mut film.kernel, TemporalKernel::Box)),
+        };
+        if (opts.variance || auto_kernel.is_some()) && spp < 2 {
             return Err(NlosError::prop(
                 "render",
                 "return_variance",
@@ -199,10 +223,13 @@ impl Plan {
         }
         let pixel_len = film.laser_slots() * film.slot_len(c);
         let pixels = film.width * film.height;
-        // Variance and adaptive sampling follow each pixel's samples in order: one chunk.
-        let whole = opts.variance || opts.target_rel_error.is_some();
+        // Adaptive sampling follows each pixel's samples in order: one chunk.
+        let whole = opts.target_rel_error.is_some();
+        let shared = !whole && crate::integrator::shares_samples(scene);
         let chunks = if whole {
             1
+        } else if shared {
+            shared_chunks(spp, pixels as u64 * (pixel_len * 4) as u64)
         } else {
             chunks_per_pixel(pixels as u64, spp, (pixel_len * 4) as u64)
         };
@@ -217,8 +244,10 @@ impl Plan {
             chunks,
             per_chunk: spp.div_ceil(BLOCK).div_ceil(chunks) * BLOCK,
             pixel_len,
-            variance: opts.variance,
+            variance: opts.variance || auto_kernel.is_some(),
+            auto_kernel,
             target_rel_error: opts.target_rel_error,
+            shared,
         })
     }
 
@@ -281,11 +310,76 @@ pub struct Part {
     pub transient: Vec<f32>,
     /// Per pixel, per chunk: three steady sums.
     pub steady: Vec<f64>,
+    /// Per pixel, per chunk: sums of each sample's squared transient values (empty unless the
+    /// plan estimates variance).
+    pub squares: Vec<f32>,
 }
 
 /// Render `scene`.
 pub fn render(scene: &Scene, opts: &RenderOptions, monitor: &Monitor) -> Result<Rendered> {
     let plan = Plan::new(scene, opts)?;
+    let mut out = render_by(scene, opts, monitor, &plan)?;
+    if let Some(kernel) = plan.auto_kernel {
+        choose_widths(&plan, kernel, &mut out);
+        if !opts.variance {
+            out.variance = None;
+        }
+    }
+    Ok(out)
+}
+
+/// Smooth every scan point's (and laser point's) transient at the kernel width of least
+/// estimated risk, pooled over its 3×3 neighbourhood of scan points ([`crate::film::auto_width`]).
+fn choose_widths(plan: &Plan, kernel: TemporalKernel, out: &mut Rendered) {
+    use crate::film::auto_width::{risks, smooth, smoothers};
+    let Some(variance) = out.variance.as_mut() else {
+        return;
+    };
+    let smoothers = smoothers(kernel, plan.film.temporal_bins);
+    let (slot, c) = (plan.film.slot_len(plan.channels), plan.channels);
+    let risk: Vec<Vec<f64>> = out
+        .transient
+        .par_chunks(slot)
+        .zip(variance.par_chunks(slot))
+        .map(|(v, var)| risks(v, var, c, &smoothers))
+        .collect();
+    let (w, h, slots) = (plan.film.width, plan.film.height, plan.film.laser_slots());
+    let choice: Vec<usize> = (0..risk.len())
+        .into_par_iter()
+        .map(|i| {
+            let (pixel, s) = (i / slots, i % slots);
+            let (x, y) = ((pixel % w) as i64, (pixel / w) as i64);
+            let mut pooled = vec![0.0f64; smoothers.len() + 1];
+            for (dx, dy) in (-1..=1).flat_map(|dx| (-1..=1).map(move |dy| (dx, dy))) {
+                let (nx, ny) = (x + dx, y + dy);
+                if nx >= 0 && ny >= 0 && nx < w as i64 && ny < h as i64 {
+                    let n = (ny as usize * w + nx as usize) * slots + s;
+                    pooled.iter_mut().zip(&risk[n]).for_each(|(a, b)| *a += b);
+                }
+            }
+            (0..pooled.len())
+                .min_by(|&a, &b| pooled[a].total_cmp(&pooled[b]))
+                .unwrap_or(0)
+        })
+        .collect();
+    out.transient
+        .par_chunks_mut(slot)
+        .zip(variance.par_chunks_mut(slot))
+        .zip(choice)
+        .for_each(|((v, var), n)| {
+            if n > 0 {
+                smooth(v, var, c, &smoothers[n - 1]);
+            }
+        });
+}
+
+/// Render `scene` by `plan`.
+fn render_by(
+    scene: &Scene,
+    opts: &RenderOptions,
+    monitor: &Monitor,
+    plan: &Plan,
+) -> Result<Rendered> {
     let copies = if plan.variance { 2 } else { 1 };
     plan.check_memory(
         opts,
@@ -294,8 +388,8 @@ pub fn render(scene: &Scene, opts: &RenderOptions, monitor: &Monitor) -> Result<
     )?;
     pool(opts.threads)?.install(|| {
         with_tracer!(scene, opts, monitor, |tracer| {
-            let job = Sampling::new(tracer, &plan, monitor);
-            if plan.chunks == 1 {
+            let job = Sampling::new(tracer, plan, monitor);
+            if plan.chunks == 1 && !plan.shared {
                 // Each pixel accumulates in place, in sample order.
                 let (len, c) = (plan.pixel_len, plan.channels);
                 let mut transient = vec![0.0f32; plan.pixels * len];
@@ -319,18 +413,20 @@ pub fn render(scene: &Scene, opts: &RenderOptions, monitor: &Monitor) -> Result<
                         if let Some(sq) = sq.as_deref_mut() {
                             variance_of_mean(buf, sq, *n);
                         }
-                        normalise(&plan, buf, &sum, st, *n);
+                        normalise(plan, buf, &sum, st, *n);
                         Ok(())
                     })?;
                 drop(sqs);
-                let mut out = rendered(&plan, transient, steady);
+                let mut out = rendered(plan, transient, steady);
                 out.variance = plan.variance.then_some(variance);
                 out.samples = samples;
                 Ok(out)
             } else {
                 let part = job.part(0..plan.pixels, 0..plan.chunks)?;
-                let (transient, steady) = assemble(&plan, &[part])?;
-                Ok(rendered(&plan, transient, steady))
+                let a = assemble(plan, &[part])?;
+                let mut out = rendered(plan, a.transient, a.steady);
+                out.variance = a.variance;
+                Ok(out)
             }
         })
     })
@@ -400,11 +496,19 @@ pub fn render_part(
 /// The render's transient and steady values of a run of pixels from parts that cover every chunk
 /// of each of them, given in pixel order and, within a pixel, chunk order: per pixel the chunks'
 /// sums are added in chunk order and divided by spp, exactly as [`render`] does.
-pub fn assemble(plan: &Plan, parts: &[Part]) -> Result<(Vec<f32>, Vec<f32>)> {
+pub fn assemble(plan: &Plan, parts: &[Part]) -> Result<Assembled> {
     let (c, len) = (plan.channels, plan.pixel_len);
     let first = parts.first().map_or(0, |p| p.pixels.start);
     let end = parts.last().map_or(0, |p| p.pixels.end);
     let mut transient = vec![0.0f32; (end - first) * len];
+    let mut squares = vec![
+        0.0f32;
+        if plan.variance {
+            (end - first) * len
+        } else {
+            0
+        }
+    ];
     let mut steady = vec![0.0f32; (end - first) * c];
     let mut sums = vec![[0.0f64; 3]; end - first];
     // The next chunk each pixel expects.
@@ -412,7 +516,11 @@ pub fn assemble(plan: &Plan, parts: &[Part]) -> Result<(Vec<f32>, Vec<f32>)> {
     for part in parts {
         let k = part.chunks.end.saturating_sub(part.chunks.start) as usize;
         let n = part.pixels.len() * k;
-        if part.transient.len() != n * len || part.steady.len() != n * 3 {
+        let n_squares = if plan.variance { n * len } else { 0 };
+        if part.transient.len() != n * len
+            || part.steady.len() != n * 3
+            || part.squares.len() != n_squares
+        {
             return Err(NlosError::Scene(format!(
                 "a part of pixels {:?}, chunks {:?} holds {} + {} values, not {} + {}",
                 part.pixels,
@@ -436,6 +544,11 @@ pub fn assemble(plan: &Plan, parts: &[Part]) -> Result<(Vec<f32>, Vec<f32>)> {
                 let at = i * k + chunk;
                 let src = &part.transient[at * len..(at + 1) * len];
                 buf.iter_mut().zip(src).for_each(|(a, b)| *a += b);
+                if plan.variance {
+                    let src = &part.squares[at * len..(at + 1) * len];
+                    let sq = &mut squares[j * len..(j + 1) * len];
+                    sq.iter_mut().zip(src).for_each(|(a, b)| *a += b);
+                }
                 for (a, b) in sums[j].iter_mut().zip(&part.steady[at * 3..at * 3 + 3]) {
                     *a += b;
                 }
@@ -447,15 +560,27 @@ pub fn assemble(plan: &Plan, parts: &[Part]) -> Result<(Vec<f32>, Vec<f32>)> {
         return Err(NlosError::Scene("parts do not cover every chunk".into()));
     }
     for (j, sum) in sums.iter().enumerate() {
-        normalise(
-            plan,
-            &mut transient[j * len..(j + 1) * len],
-            sum,
-            &mut steady[j * c..(j + 1) * c],
-            plan.spp,
-        );
+        let buf = &mut transient[j * len..(j + 1) * len];
+        if plan.variance {
+            variance_of_mean(buf, &mut squares[j * len..(j + 1) * len], plan.spp);
+        }
+        normalise(plan, buf, sum, &mut steady[j * c..(j + 1) * c], plan.spp);
     }
-    Ok((transient, steady))
+    Ok(Assembled {
+        transient,
+        steady,
+        variance: plan.variance.then_some(squares),
+    })
+}
+
+/// Values of a run of pixels put together from parts.
+pub struct Assembled {
+    /// Transient values.
+    pub transient: Vec<f32>,
+    /// Steady values.
+    pub steady: Vec<f32>,
+    /// Each transient value's variance of the mean, if the plan estimates it.
+    pub variance: Option<Vec<f32>>,
 }
 
 /// The render's arrays with their shapes.
@@ -499,6 +624,48 @@ macro_rules! with_tracer {
 }
 use with_tracer;
 
+/// A run of pixels' sums, pixel by pixel: transient, steady, and (with variance) each sample's
+/// squared transient values.
+struct RunSums {
+    transient: Vec<f32>,
+    steady: Vec<[f64; 3]>,
+    squares: Vec<f32>,
+}
+
+/// The values one sample adds to a buffer, kept apart so that their squares can be summed once
+/// the sample is complete (a sample's value in a bin is the sum of its splats there).
+struct SampleValues {
+    cur: Vec<f32>,
+    touched: Vec<usize>,
+}
+
+impl SampleValues {
+    fn new(len: usize) -> Self {
+        Self {
+            cur: vec![0.0; len],
+            touched: Vec::new(),
+        }
+    }
+
+    #[inline]
+    fn add(&mut self, i: usize, v: f32) {
+        let x = &mut self.cur[i];
+        if *x == 0.0 {
+            self.touched.push(i);
+        }
+        *x += v;
+    }
+
+    /// The sample is complete: its squared values into `squares`.
+    fn finish(&mut self, squares: &mut [f32]) {
+        for &i in &self.touched {
+            squares[i] += self.cur[i] * self.cur[i];
+            self.cur[i] = 0.0;
+        }
+        self.touched.clear();
+    }
+}
+
 /// A tracer's samples into sums: the per-(seed, pixel, block) streams, the splatter, progress and
 /// cancellation.
 struct Sampling<'a, T> {
@@ -518,10 +685,62 @@ impl<'a, T: Tracer> Sampling<'a, T> {
         }
     }
 
+    /// Add one contribution to a pixel's transient `buf` (at `base` in `values`' buffer) and
+    /// steady `sum`; returns the value it added over all channels.
+    #[inline]
+    fn deposit(
+        &self,
+        s: &Splat,
+        buf: &mut [f32],
+        sum: &mut [f64; 3],
+        values: Option<&mut SampleValues>,
+        base: usize,
+    ) -> f64 {
+        // Nothing non-finite reaches the film (an overflowing product of extreme but valid
+        // parameters is dropped, not spread as Inf or NaN).
+        if !s.value.is_finite() || !s.opl.is_finite() {
+            return 0.0;
+        }
+        let (film, c) = (&self.plan.film, self.plan.channels);
+        let mut total = 0.0;
+        for (k, acc) in sum.iter_mut().enumerate().take(c) {
+            *acc += s.value[k] as f64;
+            total += s.value[k] as f64;
+        }
+        let slot_len = film.slot_len(c);
+        let at = s.slot * slot_len;
+        let slot = &mut buf[at..at + slot_len];
+        match (&film.phasor, values) {
+            (Some(ph), values) => {
+                ph.put(s.opl - film.start_opl, s.value[0], slot);
+                if let Some(values) = values {
+                    let mut one = vec![0.0f32; slot_len];
+                    ph.put(s.opl - film.start_opl, s.value[0], &mut one);
+                    one.iter()
+                        .enumerate()
+                        .for_each(|(i, &v)| values.add(base + at + i, v));
+                }
+            }
+            (None, None) => self.splatter.splat(s.opl, |bin, w| {
+                for k in 0..c {
+                    slot[bin * c + k] += s.value[k] * w;
+                }
+            }),
+            (None, Some(values)) => self.splatter.splat(s.opl, |bin, w| {
+                for k in 0..c {
+                    let v = s.value[k] * w;
+                    slot[bin * c + k] += v;
+                    values.add(base + at + bin * c + k, v);
+                }
+            }),
+        }
+        total
+    }
+
     /// Samples [first, end) of `pixel`, accumulated into its transient `buf` and steady `sum`,
-    /// and each sample's squared per-bin values into `sq` if given. With adaptive sampling it stops
-    /// after the first block at which the pixel's total is known well enough ([`Plan`]); it
-    /// returns the samples taken.
+    /// and each sample's squared values into `squares` if given. With adaptive sampling it stops
+    /// after the first block at which the pixel's total is known well enough
+    /// ([`Plan::precise_enough`]); it returns the samples taken.
     fn trace(
         &self,
         pixel: usize,
@@ -529,13 +748,9 @@ impl<'a, T: Tracer> Sampling<'a, T> {
         end: u64,
         buf: &mut [f32],
         sum: &mut [f64; 3],
-        mut sq: Option<&mut [f32]>,
+        mut squares: Option<&mut [f32]>,
     ) -> Result<u64> {
-        let (film, c) = (&self.plan.film, self.plan.channels);
-        let slot_len = film.slot_len(c);
-        // This sample's values (for the squares) and the indices it touched.
-        let mut cur = vec![0.0f32; if sq.is_some() { buf.len() } else { 0 }];
-        let mut touched: Vec<usize> = Vec::new();
+        let mut values = squares.as_ref().map(|sq| SampleValues::new(sq.len()));
         // Moments of the per-sample totals, for adaptive sampling.
         let (mut t1, mut t2) = (0.0f64, 0.0f64);
         let cancel = &self.monitor.cancel;
@@ -549,50 +764,10 @@ impl<'a, T: Tracer> Sampling<'a, T> {
             for _ in 0..n {
                 let mut total = 0.0f64;
                 self.tracer.trace(pixel, &mut rng, &mut |s: Splat| {
-                    // Nothing non-finite reaches the film (an overflowing product of extreme
-                    // but valid parameters is dropped, not spread as Inf or NaN).
-                    if !s.value.is_finite() || !s.opl.is_finite() {
-                        return;
-                    }
-                    for (k, acc) in sum.iter_mut().enumerate().take(c) {
-                        *acc += s.value[k] as f64;
-                        total += s.value[k] as f64;
-                    }
-                    let at = s.slot * slot_len;
-                    let slot = &mut buf[at..at + slot_len];
-                    match &film.phasor {
-                        Some(ph) => {
-                            ph.put(s.opl - film.start_opl, s.value[0], slot);
-                            if !cur.is_empty() {
-                                ph.put(
-                                    s.opl - film.start_opl,
-                                    s.value[0],
-                                    &mut cur[at..at + slot_len],
-                                );
-                                touched.extend(at..at + slot_len);
-                            }
-                        }
-                        None => self.splatter.splat(s.opl, |bin, w| {
-                            for k in 0..c {
-                                let v = s.value[k] * w;
-                                slot[bin * c + k] += v;
-                                if let Some(x) = cur.get_mut(at + bin * c + k) {
-                                    if *x == 0.0 {
-                                        touched.push(at + bin * c + k);
-                                    }
-                                    *x += v;
-                                }
-                            }
-                        }),
-                    }
+                    total += self.deposit(&s, buf, sum, values.as_mut(), 0);
                 });
-                if let Some(sq) = sq.as_deref_mut() {
-                    // A sample's value in a bin is the sum of its splats there.
-                    for &i in &touched {
-                        sq[i] += cur[i] * cur[i];
-                        cur[i] = 0.0;
-                    }
-                    touched.clear();
+                if let (Some(v), Some(sq)) = (values.as_mut(), squares.as_deref_mut()) {
+                    v.finish(sq);
                 }
                 t1 += total;
                 t2 += total * total;
@@ -611,32 +786,138 @@ impl<'a, T: Tracer> Sampling<'a, T> {
         Ok(start - first)
     }
 
-    /// Every (pixel, chunk) of the ranges in parallel, each into its own slice of the part.
-    fn part(&self, pixels: Range<usize>, chunks: Range<u64>) -> Result<Part> {
-        let (len, k) = (self.plan.pixel_len, chunks.end - chunks.start);
-        let tasks = pixels.len() * k as usize;
-        let mut part = Part {
-            transient: vec![0.0f32; tasks * len],
-            steady: vec![0.0f64; tasks * 3],
+    /// Light samples [first, end) of a shared render, connected to the pixels `pixels`. A pixel's
+    /// sums do not depend on which other pixels share the run.
+    fn trace_shared(&self, pixels: Range<usize>, first: u64, end: u64) -> Result<RunSums> {
+        let len = self.plan.pixel_len;
+        let p0 = pixels.start;
+        let mut out = RunSums {
+            transient: vec![0.0f32; pixels.len() * len],
+            steady: vec![[0.0f64; 3]; pixels.len()],
+            squares: vec![
+                0.0f32;
+                if self.plan.variance {
+                    pixels.len() * len
+                } else {
+                    0
+                }
+            ],
+        };
+        let mut values = self
+            .plan
+            .variance
+            .then(|| SampleValues::new(pixels.len() * len));
+        let cancel = &self.monitor.cancel;
+        let mut start = first;
+        while start < end {
+            let n = BLOCK.min(end - start);
+            // One stream per block of light samples, the same for every pixel.
+            let mut rng = Sampler::new(self.plan.seed, SHARED_STREAM, start / BLOCK);
+            for _ in 0..n {
+                self.tracer
+                    .trace_shared(pixels.clone(), &mut rng, &mut |p, s: Splat| {
+                        let j = p - p0;
+                        let buf = &mut out.transient[j * len..(j + 1) * len];
+                        self.deposit(&s, buf, &mut out.steady[j], values.as_mut(), j * len);
+                    });
+                if let Some(v) = values.as_mut() {
+                    v.finish(&mut out.squares);
+                }
+                if cancel.load(Ordering::Relaxed) {
+                    return Err(NlosError::Interrupted);
+                }
+            }
+            self.monitor
+                .done
+                .fetch_add(n * pixels.len() as u64, Ordering::Relaxed);
+            start += n;
+        }
+        Ok(out)
+    }
+
+    /// An empty part of `pixels` × `chunks`.
+    fn empty_part(&self, pixels: Range<usize>, chunks: Range<u64>) -> Part {
+        let n = pixels.len() * (chunks.end - chunks.start) as usize;
+        let len = self.plan.pixel_len;
+        Part {
+            transient: vec![0.0f32; n * len],
+            steady: vec![0.0f64; n * 3],
+            squares: vec![0.0f32; if self.plan.variance { n * len } else { 0 }],
             pixels,
             chunks,
-        };
+        }
+    }
+
+    /// A shared render's part: each chunk of light samples over runs of the pixels, in parallel
+    /// (enough runs to keep every thread busy; a light subpath is retraced once per run).
+    fn part_shared(&self, pixels: Range<usize>, chunks: Range<u64>) -> Result<Part> {
+        let (len, k) = (self.plan.pixel_len, (chunks.end - chunks.start) as usize);
+        let runs = (4 * rayon::current_num_threads())
+            .div_ceil(k)
+            .min(pixels.len())
+            .max(1);
+        let cuts: Vec<usize> = (0..=runs)
+            .map(|i| pixels.start + i * pixels.len() / runs)
+            .collect();
+        let tasks: Vec<(Range<usize>, u64)> = cuts
+            .windows(2)
+            .flat_map(|w| chunks.clone().map(move |chunk| (w[0]..w[1], chunk)))
+            .collect();
+        let done: Vec<(Range<usize>, u64, RunSums)> = tasks
+            .into_par_iter()
+            .map(|(run, chunk)| {
+                let (first, end) = self.plan.chunk_samples(chunk);
+                Ok((run.clone(), chunk, self.trace_shared(run, first, end)?))
+            })
+            .collect::<Result<_>>()?;
+        // Into the part's layout: per pixel, per chunk.
+        let mut part = self.empty_part(pixels, chunks);
+        for (run, chunk, sums) in done {
+            let kc = (chunk - part.chunks.start) as usize;
+            for (i, p) in run.enumerate() {
+                let at = (p - part.pixels.start) * k + kc;
+                let (to, from) = (at * len..(at + 1) * len, i * len..(i + 1) * len);
+                part.transient[to.clone()].copy_from_slice(&sums.transient[from.clone()]);
+                if self.plan.variance {
+                    part.squares[to].copy_from_slice(&sums.squares[from]);
+                }
+                part.steady[at * 3..at * 3 + 3].copy_from_slice(&sums.steady[i]);
+            }
+        }
+        Ok(part)
+    }
+
+    /// Every (pixel, chunk) of the ranges in parallel, each into its own slice of the part.
+    fn part(&self, pixels: Range<usize>, chunks: Range<u64>) -> Result<Part> {
+        if self.plan.shared {
+            return self.part_shared(pixels, chunks);
+        }
+        let (len, k) = (self.plan.pixel_len, chunks.end - chunks.start);
+        let mut part = self.empty_part(pixels, chunks);
         let (first_pixel, first_chunk) = (part.pixels.start, part.chunks.start);
+        let mut squares: Vec<Option<&mut [f32]>> = if self.plan.variance {
+            part.squares.chunks_mut(len.max(1)).map(Some).collect()
+        } else {
+            (0..part.steady.len() / 3).map(|_| None).collect()
+        };
         part.transient
             .par_chunks_mut(len.max(1))
             .zip(part.steady.par_chunks_mut(3))
+            .zip(squares.par_iter_mut())
             .enumerate()
-            .try_for_each(|(task, (buf, st))| {
+            .try_for_each(|(task, ((buf, st), sq))| {
                 let pixel = first_pixel + task / k as usize;
                 let (first, end) = self.plan.chunk_samples(first_chunk + task as u64 % k);
                 let mut sum = [0.0f64; 3];
-                self.trace(pixel, first, end, buf, &mut sum, None)?;
+                self.trace(pixel, first, end, buf, &mut sum, sq.as_deref_mut())?;
                 st.copy_from_slice(&sum);
                 Ok(())
             })?;
+        drop(squares);
         Ok(part)
     }
 }
+
 /// The transient's shape: (H, W, T, C), exhaustive (H, W, LH, LW, T, C); for a phasor film
 /// (frequencies, 2) in place of (T, C).
 fn output_shape(film: &Film, c: usize) -> Vec<usize> {
@@ -656,6 +937,18 @@ fn output_shape(film: &Film, c: usize) -> Vec<usize> {
 const MIN_TASKS: u64 = 64;
 /// Largest memory (bytes) the per-chunk buffers of a split render may take.
 const CHUNK_MEMORY: u64 = 256 << 20;
+
+/// Most chunks a shared render's light samples are split into (each holds a whole film while the
+/// render runs).
+const SHARED_CHUNKS: u64 = 16;
+
+/// Chunks of a shared render's `spp` light samples (whole blocks): [`SHARED_CHUNKS`] within
+/// [`CHUNK_MEMORY`] for a film of `film_bytes`; a function of the capture only, as
+/// [`chunks_per_pixel`].
+fn shared_chunks(spp: u64, film_bytes: u64) -> u64 {
+    let by_memory = CHUNK_MEMORY / film_bytes.max(1);
+    SHARED_CHUNKS.min(by_memory).min(spp.div_ceil(BLOCK)).max(1)
+}
 
 /// Chunks each pixel's `spp` samples are split into. It depends on the capture only, never on the
 /// thread count, so results stay bit-identical whatever the threads: one chunk (the whole pixel in

@@ -136,6 +136,22 @@ class _Progress:
             self.bar.close()
 
 
+def _kernel_options(kernel: Optional[str], sigma: Union[float, str, None], bandwidth: Union[float, str, None]) -> dict:
+    """The core's kernel options; a width of "auto" picks the shape's width per scan point."""
+    auto = [name for name, v in (("kernel_sigma", sigma), ("kernel_bandwidth", bandwidth)) if isinstance(v, str)]
+    for name in auto:
+        if (sigma if name == "kernel_sigma" else bandwidth) != "auto":
+            raise SceneError(f"plugin 'render': key '{name}': must be a number of bins or 'auto'")
+    if not auto:
+        return {"kernel": kernel, "kernel_sigma": sigma, "kernel_bandwidth": bandwidth}
+    placeholder = 1.0  # the shape's width, replaced per scan point
+    if auto == ["kernel_sigma"] and bandwidth is None:
+        return {"kernel": kernel or "gaussian", "kernel_sigma": placeholder, "auto_width": True}
+    if auto == ["kernel_bandwidth"] and sigma is None:
+        return {"kernel": kernel or "epanechnikov", "kernel_bandwidth": placeholder, "auto_width": True}
+    raise SceneError("plugin 'render': key 'kernel_bandwidth': set kernel_sigma or kernel_bandwidth, not both")
+
+
 def render(
     scene: Union[Scene, Mapping[str, Any], str, os.PathLike],
     spp: Optional[int] = None,
@@ -145,8 +161,8 @@ def render(
     variant: str = "mono",
     integrator: Optional[str] = None,
     kernel: Optional[str] = None,
-    kernel_sigma: Optional[float] = None,
-    kernel_bandwidth: Optional[float] = None,
+    kernel_sigma: Union[float, str, None] = None,
+    kernel_bandwidth: Union[float, str, None] = None,
     hgrs_max_iterations: Optional[int] = None,
     hgrs_estimator: Optional[str] = None,
     max_memory: Union[int, str, None] = None,
@@ -170,7 +186,9 @@ def render(
     Temporal kernel (overrides the film's): ``kernel`` = ``"box"``, ``"gaussian"`` (width
     ``kernel_sigma``) or ``"epanechnikov"``, ``"triangular"``, ``"biweight"``, ``"triweight"``,
     ``"cosine"`` (half-width ``kernel_bandwidth``), widths in time bins. Without ``kernel``,
-    ``kernel_sigma`` alone means Gaussian and ``kernel_bandwidth`` alone Epanechnikov.
+    ``kernel_sigma`` alone means Gaussian and ``kernel_bandwidth`` alone Epanechnikov. A width of
+    ``"auto"`` is chosen per scan point from its samples: the box render is smoothed at the width of
+    least estimated squared error (Stein's unbiased risk estimate; docs/techniques.md).
 
     ``return_variance=True`` returns ``(steady, transient, variance)``: each transient value's
     variance of the mean, estimated from the per-sample values. ``target_rel_error=e`` samples each
@@ -202,9 +220,9 @@ def render(
         scene = scene.with_integrator(name, hgrs_max_iterations, hgrs_estimator)
     bar = _Progress(progress)
     try:
-        options = {"spp": spp, "seed": int(seed), "threads": threads, "mono": _VARIANTS[key], "kernel": kernel,
-                   "kernel_sigma": kernel_sigma, "kernel_bandwidth": kernel_bandwidth, "max_memory": limit,
-                   "return_variance": bool(return_variance), "target_rel_error": target_rel_error}
+        options = {"spp": spp, "seed": int(seed), "threads": threads, "mono": _VARIANTS[key], "max_memory": limit,
+                   "return_variance": bool(return_variance), "target_rel_error": target_rel_error,
+                   **_kernel_options(kernel, kernel_sigma, kernel_bandwidth)}
         steady, transient, variance = _core.render(scene, options, bar)
         return (steady, transient, variance) if return_variance else (steady, transient)
     finally:

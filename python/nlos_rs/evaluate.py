@@ -23,6 +23,7 @@ the light that went through both corners, as the thesis evaluates them.
 from __future__ import annotations
 
 import argparse
+import importlib.util
 import json
 import time
 from pathlib import Path
@@ -47,9 +48,15 @@ DEFAULTS = {  # size, spp, ground-truth spp, sigma, bandwidth
     "t_nlos_2corner_big": (16, 10_000, 1 << 20, 2.0, 3.0),
     "cornell_box": (64, 1_000, 15_000, 3.0, 3.0),  # thesis §5.3.4: reference 15,000 spp
 }
-TECHNIQUES = ["baseline", "hgrs", "hgrs_rejection", "gaussian", "epanechnikov"]
+THESIS = ["baseline", "hgrs", "hgrs_rejection", "gaussian", "epanechnikov"]
+# Beyond the thesis (docs/techniques.md): nlos_rs' defaults (sample reuse across scan points), the
+# automatic kernel width on top, and mitransient itself on the same scene.
+BEYOND = ["reuse", "reuse_auto", "mitransient"]
+TECHNIQUES = THESIS + BEYOND
 LABELS = {"baseline": "Baseline", "hgrs": "HGRS, resampled (unbiased)", "hgrs_rejection": "HGRS, rejection (thesis)",
-          "gaussian": "Gaussian kernel", "epanechnikov": "Epanechnikov kernel"}
+          "gaussian": "Gaussian kernel", "epanechnikov": "Epanechnikov kernel",
+          "reuse": "Sample reuse (nlos_rs default)", "reuse_auto": "Sample reuse + auto Gaussian width",
+          "mitransient": "mitransient 1.3.1"}
 
 
 def options(name: str, args) -> dict:
@@ -59,13 +66,36 @@ def options(name: str, args) -> dict:
         "hgrs_rejection": {"integrator": "transient_nlos_path_rs", "hgrs_max_iterations": args.hgrs_iterations, "hgrs_estimator": "rejection"},
         "gaussian": {"kernel_sigma": args.sigma},
         "epanechnikov": {"kernel_bandwidth": args.bandwidth},
+        "reuse": {},
+        "reuse_auto": {"kernel_sigma": "auto"},
+        "mitransient": {},
     }[name]
+
+
+def scene_of(name: str, d: dict):
+    """The scene a technique renders: the thesis' techniques trace one path per scan point (as the
+    thesis and mitransient do); the others take nlos_rs' defaults."""
+    if name in THESIS and d["integrator"]["type"].startswith("transient_nlos"):
+        d = {**d, "integrator": {**d["integrator"], "nlos_sample_reuse": False}}
+    return nlos_rs.load_dict(d)
 
 
 def timed(scene, spp: int, seed: int, threads, **kw):
     t0 = time.perf_counter()
     _, transient = nlos_rs.render(scene, spp=spp, seed=seed, threads=threads, progress=False, **kw)
     return transient, time.perf_counter() - t0
+
+
+def timed_mitransient(d: dict, spp: int, seed: int, threads, shape):
+    """mitransient's render of the same scene dict (warm: a first small render compiles its kernels)."""
+    import drjit as dr
+
+    from .mitsuba_compat import render_mitransient
+
+    if threads:
+        dr.set_thread_count(threads)
+    _, transient, seconds = render_mitransient(d, spp=spp, seed=seed)
+    return np.asarray(transient, np.float32).reshape(shape), seconds
 
 
 def ground_truth(scene, args, out: Path) -> np.ndarray:
@@ -84,10 +114,13 @@ def fmt_time(s: float) -> str:
 
 def table(rows: List[Dict], title: str) -> str:
     base = next(r for r in rows if r["technique"] == "baseline")
-    out = [f"#### {title}", "", "| technique | spp | time | MSE ↓ | PSNR (dB) ↑ | MSE vs baseline |", "|---|---:|---:|---:|---:|---:|"]
+    mitr = next((r for r in rows if r["technique"] == "mitransient"), None)
+    cols = "| technique | spp | time | MSE ↓ | PSNR (dB) ↑ | MSE vs baseline |" + (" mitransient's MSE ÷ MSE |" if mitr else "")
+    out = [f"#### {title}", "", cols, "|---|---:|---:|---:|---:|---:|" + ("---:|" if mitr else "")]
     for r in rows:
         change = "—" if r["technique"] == "baseline" else f"{100 * (r['mse'] / base['mse'] - 1):+.1f} %"
-        out.append(f"| {LABELS[r['technique']]} | {r['spp']:,} | {fmt_time(r['time'])} | {r['mse']:.3g} | {r['psnr']:.2f} | {change} |")
+        row = f"| {LABELS[r['technique']]} | {r['spp']:,} | {fmt_time(r['time'])} | {r['mse']:.3g} | {r['psnr']:.2f} | {change} |"
+        out.append(row + (f" **{mitr['mse'] / r['mse']:.2f}×** |" if mitr else ""))
     return "\n".join(out)
 
 
@@ -147,19 +180,29 @@ def main(argv=None) -> int:
     unknown = set(techniques) - set(TECHNIQUES)
     if unknown or "baseline" not in techniques:
         ap.error(f"techniques must include 'baseline' and come from {TECHNIQUES}; got {techniques}")
+    if "mitransient" in techniques and importlib.util.find_spec("mitransient") is None:
+        print("mitransient is not installed: leaving it out (pip install nlos_rs[peer])")
+        techniques.remove("mitransient")
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    scene = nlos_rs.load_dict(SCENES[args.scene](args.size))
-    if scene.integrator == "transient_path":  # HGRS is an NLOS technique
-        techniques = [t for t in techniques if not t.startswith("hgrs")]
+    d = SCENES[args.scene](args.size)
+    scenes = {name: scene_of(name, d) for name in techniques if name != "mitransient"}
+    scene = scenes["baseline"]
+    if scene.integrator == "transient_path":  # HGRS and sample reuse are NLOS techniques
+        techniques = [t for t in techniques if not t.startswith(("hgrs", "reuse"))]
     bins, dt, t0 = scene.temporal
-    gt = ground_truth(scene, args, out)
+    gt = ground_truth(scenes.get("reuse", scene), args, out)
 
     def evaluate(name: str, n: int):
-        t, seconds = timed(scene, n, args.seed, args.threads, **options(name, args))
+        if name == "mitransient":
+            t, seconds = timed_mitransient(d, n, args.seed, args.threads, gt.shape)
+        else:
+            t, seconds = timed(scenes[name], n, args.seed, args.threads, **options(name, args))
         return t, {"technique": name, "spp": n, "time": seconds, "mse": metrics.mse(gt, t), "psnr": metrics.psnr(gt, t)}
 
     timed(scene, 16, args.seed, args.threads)  # warm-up
+    if "mitransient" in techniques:
+        timed_mitransient(d, 16, args.seed, args.threads, gt.shape)
     equal_spp, curves = [], {}
     for name in techniques:
         t, row = evaluate(name, args.spp)
@@ -176,7 +219,7 @@ def main(argv=None) -> int:
     plots(out, gt, curves, equal_spp, t0, dt, "equal_spp")
     plots(out, gt, {}, equal_time, t0, dt, "equal_time")
     header = (f"### {args.scene}: {args.size}x{args.size} scan, {bins} bins x {dt} m from {t0} m; ground truth {args.gt_spp:,} spp "
-              f"(baseline); HGRS N = {args.hgrs_iterations}, Gaussian sigma = {args.sigma}, Epanechnikov b = {args.bandwidth} bins; "
+              f"(nlos_rs defaults); HGRS N = {args.hgrs_iterations}, Gaussian sigma = {args.sigma}, Epanechnikov b = {args.bandwidth} bins; "
               f"nlos_rs {nlos_rs.__version__}, {args.threads or 'all'} threads")
     md = "\n\n".join([header, table(equal_spp, "Equal samples per pixel"), table(equal_time, f"Equal time ({fmt_time(budget)} each)")])
     (out / "results.md").write_text(md + "\n")

@@ -1,8 +1,10 @@
 //! `transient_hdr_film`: the sensor grid and the optical-path-length (OPL) time axis
 //! (mitransient-model §1, §3.8). How a contribution is spread over the time bins — the box of
 //! mitransient or a temporal kernel density estimate — is in [`temporal_kernel`]; the
-//! frequency-domain `phasor_hdr_film` in [`phasor`].
+//! frequency-domain `phasor_hdr_film` in [`phasor`]; a kernel width chosen per scan point in
+//! [`auto_width`].
 
+pub mod auto_width;
 pub mod phasor;
 pub mod temporal_kernel;
 

@@ -126,8 +126,21 @@ impl TemporalKernel {
         }
     }
 
+    /// The same kernel shape at width `w` (σ or b, in bins); the box stays the box.
+    pub fn with_width(&self, w: f64) -> Self {
+        match *self {
+            Self::Box => Self::Box,
+            Self::Gaussian(_) => Self::Gaussian(w),
+            Self::Epanechnikov(_) => Self::Epanechnikov(w),
+            Self::Triangular(_) => Self::Triangular(w),
+            Self::Biweight(_) => Self::Biweight(w),
+            Self::Triweight(_) => Self::Triweight(w),
+            Self::Cosine(_) => Self::Cosine(w),
+        }
+    }
+
     /// Cumulative distribution of the kernel at offset u (bins) from its centre.
-    fn cdf(&self, u: f64) -> f64 {
+    pub fn cdf(&self, u: f64) -> f64 {
         let (_, b) = self.name_and_width();
         let v = if b > 0.0 {
             (u / b).clamp(-1.0, 1.0)

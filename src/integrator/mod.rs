@@ -1,20 +1,24 @@
 //! Integrators: how one path sample of a pixel is traced and what it contributes. Each is a
 //! [`Tracer`]: `transient_nlos_path(_rs)` is [`NlosTracer`] (with Hidden Geometry Rejection
-//! Sampling in [`hgrs`]), `transient_path` is [`PathTracer`]. The render loop
+//! Sampling in [`hgrs`] and sample reuse across scan points in [`sample_reuse`]), `transient_path`
+//! is [`PathTracer`]. The render loop
 //! (`render.rs`) only sees the trait; a new integrator is a new file here and a line in
 //! `render::render`.
 
 pub mod hgrs;
 pub mod nlos;
 pub mod path;
+pub mod sample_reuse;
 
 pub use nlos::NlosTracer;
 pub use path::PathTracer;
+pub use sample_reuse::shares_samples;
 
 use crate::geometry::Interaction;
 use crate::math::Spectrum;
 use crate::sampling::Sampler;
 use glam::Vec3A;
+use std::ops::Range;
 
 /// One contribution of a path: its value, optical path length and laser slot (exhaustive captures;
 /// 0 otherwise). The film's splatter spreads it over time bins.
@@ -75,6 +79,17 @@ impl Vertex {
 pub trait Tracer: Sync {
     /// Trace one path sample of `pixel` (row-major), passing every contribution to `out`.
     fn trace(&self, pixel: usize, rng: &mut Sampler, out: &mut impl FnMut(Splat));
+
+    /// Trace one light subpath shared by the pixels `pixels`, passing every contribution to
+    /// `out(pixel, splat)` ([`sample_reuse`]; only called where [`shares_samples`] holds, so a
+    /// tracer that never shares, `transient_path`, keeps this empty default).
+    fn trace_shared(
+        &self,
+        _pixels: Range<usize>,
+        _rng: &mut Sampler,
+        _out: &mut impl FnMut(usize, Splat),
+    ) {
+    }
 }
 
 /// Russian roulette as Mitsuba does it: a path with zero throughput ends; from loop depth `rr_depth`

@@ -24,8 +24,8 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 /// A prepared `transient_nlos_path(_rs)` render.
 pub struct NlosTracer<'a> {
-    scene: &'a Scene,
-    settings: &'a NlosSettings,
+    pub(super) scene: &'a Scene,
+    pub(super) settings: &'a NlosSettings,
     laser: &'a Projector,
     /// Each shape's BSDF.
     bsdfs: Vec<Bsdf<Spectrum>>,
@@ -34,13 +34,13 @@ pub struct NlosTracer<'a> {
     /// Laser irradiance (× scale).
     irradiance: Spectrum,
     /// Scan points and laser spots.
-    capture: Capture,
+    pub(super) capture: Capture,
     /// A perspective camera as the sensor, instead of the scan points.
     camera: Option<&'a Camera>,
     /// Set by the caller to stop the render.
     cancel: &'a AtomicBool,
     /// Hidden-geometry distribution, if that sampling is on.
-    hidden: Option<AreaSampler>,
+    pub(super) hidden: Option<AreaSampler>,
 }
 
 impl<'a> NlosTracer<'a> {
@@ -87,14 +87,20 @@ impl<'a> NlosTracer<'a> {
     }
 
     #[inline]
-    fn bsdf(&self, x: &Interaction) -> &Bsdf<Spectrum> {
+    pub(super) fn bsdf(&self, x: &Interaction) -> &Bsdf<Spectrum> {
         &self.bsdfs[x.shape as usize]
     }
 
     /// Laser sampling (mitransient-model §3.4): connect the path vertex `v` to the laser spot,
     /// whose NEE is cached in `spot`.
     #[inline]
-    fn connect_spot(&self, v: &Vertex, spot: &Spot, slot: usize, out: &mut impl FnMut(Splat)) {
+    pub(super) fn connect_spot(
+        &self,
+        v: &Vertex,
+        spot: &Spot,
+        slot: usize,
+        out: &mut impl FnMut(Splat),
+    ) {
         let (x, wi, beta, opl, eta) = (&v.it, v.wi, v.beta, v.opl, v.eta);
         if spot.radiance == Some(Spectrum::ZERO) || spot.incident == Spectrum::ZERO {
             return;
@@ -113,19 +119,27 @@ impl<'a> NlosTracer<'a> {
         if !self.scene.visible(x, spot.it.p) {
             return;
         }
-        // A glossy spot reflects the laser towards x by its BSDF (mitransient-model §3.5).
-        let radiance = match spot.radiance {
-            Some(r) => r,
-            None => match self.bsdf(&spot.it).eval(spot.it.ns, -w, spot.to_laser) {
-                Some(f_spot) => spot.incident * f_spot,
-                None => return,
-            },
+        let Some(radiance) = self.spot_radiance(spot, w) else {
+            return;
         };
         out(Splat {
             slot,
             opl: opl + (r * eta) as f64 + spot.last_leg,
             value: beta * f * radiance * (cos_z / r2),
         });
+    }
+
+    /// The radiance the laser spot sends along −`w` (towards a vertex that sees it along `w`): a
+    /// glossy spot reflects the laser by its BSDF (mitransient-model §3.5).
+    #[inline]
+    pub(super) fn spot_radiance(&self, spot: &Spot, w: Vec3A) -> Option<Spectrum> {
+        match spot.radiance {
+            Some(r) => Some(r),
+            None => self
+                .bsdf(&spot.it)
+                .eval(spot.it.ns, -w, spot.to_laser)
+                .map(|f_spot| spot.incident * f_spot),
+        }
     }
 
     /// Next-event estimation straight to the projector (mitransient-model §3.5), used without
@@ -208,7 +222,7 @@ impl<'a> NlosTracer<'a> {
     /// optical path so far: the scan point seen from the sensor origin, or with a camera the
     /// surface its jittered ray hits (the first leg measured from the pinhole).
     #[inline]
-    fn first_vertex(&self, pixel: usize, rng: &mut Sampler) -> Option<Vertex> {
+    pub(super) fn first_vertex(&self, pixel: usize, rng: &mut Sampler) -> Option<Vertex> {
         let account = self.settings.account_first_and_last_bounces;
         let (it, sensor) = match self.camera {
             None => (self.capture.scan_points[pixel]?, self.scene.meter.origin),
@@ -258,6 +272,15 @@ impl<'a> NlosTracer<'a> {
 }
 
 impl Tracer for NlosTracer<'_> {
+    fn trace_shared(
+        &self,
+        pixels: std::ops::Range<usize>,
+        rng: &mut Sampler,
+        out: &mut impl FnMut(usize, Splat),
+    ) {
+        NlosTracer::trace_shared(self, pixels, rng, out)
+    }
+
     /// Trace one path from the scan point of `pixel` (mitransient-model §3.2–3.3).
     fn trace(&self, pixel: usize, rng: &mut Sampler, out: &mut impl FnMut(Splat)) {
         let st = self.settings;

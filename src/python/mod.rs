@@ -580,6 +580,8 @@ pub(crate) struct Opts {
     return_variance: bool,
     #[pyo3(default)]
     target_rel_error: Option<f64>,
+    #[pyo3(default)]
+    auto_width: bool,
 }
 
 impl Opts {
@@ -603,6 +605,7 @@ impl Opts {
             max_memory: self.max_memory,
             variance: self.return_variance,
             target_rel_error: self.target_rel_error,
+            auto_width: self.auto_width,
         })
     }
 }

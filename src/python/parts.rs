@@ -105,12 +105,13 @@ pub fn assemble<'py>(
                 chunks: c.0..c.1,
                 transient: t.as_slice()?.to_vec(),
                 steady: s.as_slice()?.to_vec(),
+                squares: Vec::new(),
             })
         })
         .collect::<PyResult<_>>()?;
-    let (transient, steady) = py.detach(|| render::assemble(&plan, &parts))?;
+    let a = py.detach(|| render::assemble(&plan, &parts))?;
     Ok((
-        PyArray1::from_vec(py, transient),
-        PyArray1::from_vec(py, steady),
+        PyArray1::from_vec(py, a.transient),
+        PyArray1::from_vec(py, a.steady),
     ))
 }

@@ -103,6 +103,10 @@ pub struct NlosSettings {
     pub hgrs: Option<Hgrs>,
     /// `temporal_filter='gaussian'` with `gaussian_stddev` (bins), applied to the film.
     pub temporal_kernel: Option<TemporalKernel>,
+    /// `nlos_sample_reuse`: share each light subpath among all scan points where the estimator
+    /// allows it ([`crate::integrator::shares_samples`]); off renders one path per scan point, as
+    /// mitransient does.
+    pub sample_reuse: bool,
 }
 
 impl NlosSettings {
@@ -178,6 +182,7 @@ impl NlosSettings {
             hgs_max_depth,
             hgrs,
             temporal_kernel,
+            sample_reuse: p.bool("nlos_sample_reuse", true)?,
         };
         p.finish()?;
         if s.hgrs.is_some() && !s.hidden_geometry_sampling {

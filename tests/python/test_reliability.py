@@ -213,7 +213,7 @@ def test_ctrl_c_stops_an_expensive_render_within_a_fifth_of_a_second():
 
 
 def test_other_threads_run_while_rendering():
-    d = nlos_rs.scenes.z_nlos_1corner(width=8, height=8, spp=20_000)
+    d = nlos_rs.scenes.z_nlos_1corner(width=8, height=8, spp=100_000)
     ticks = []
     stop = threading.Event()
 

@@ -12,8 +12,10 @@ REPS = 6
 
 
 def z(**kw):
+    """The Z with the thesis' baseline: one path per scan point (no sample reuse)."""
     kw.setdefault("width", 8)
     kw.setdefault("height", 8)
+    kw.setdefault("nlos_sample_reuse", False)
     return nlos_rs.scenes.z_nlos_1corner(**kw)
 
 
@@ -119,7 +121,7 @@ def test_hgrs_resampled_matches_the_baseline_on_z():
 
 
 def two_corner(spp, **kw):
-    return nlos_rs.scenes.t_nlos_2corner("small", width=4, height=4, spp=spp, filter_bounces=4, **kw)
+    return nlos_rs.scenes.t_nlos_2corner("small", width=4, height=4, spp=spp, filter_bounces=4, nlos_sample_reuse=False, **kw)
 
 
 def test_hgrs_resampled_matches_the_baseline_on_two_corners():
