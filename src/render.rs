@@ -811,15 +811,24 @@ impl<'a, T: Tracer> Sampling<'a, T> {
         let mut start = first;
         while start < end {
             let n = BLOCK.min(end - start);
-            // One stream per block of light samples, the same for every pixel.
+            // One stream per block of light samples, the same for every pixel, and each pixel's
+            // own stream of the block for its first vertex.
             let mut rng = Sampler::new(self.plan.seed, SHARED_STREAM, start / BLOCK);
+            let mut pixel_rngs: Vec<Sampler> = pixels
+                .clone()
+                .map(|p| Sampler::new(self.plan.seed, p as u64, start / BLOCK))
+                .collect();
             for _ in 0..n {
-                self.tracer
-                    .trace_shared(pixels.clone(), &mut rng, &mut |p, s: Splat| {
+                self.tracer.trace_shared(
+                    pixels.clone(),
+                    &mut rng,
+                    &mut pixel_rngs,
+                    &mut |p, s: Splat| {
                         let j = p - p0;
                         let buf = &mut out.transient[j * len..(j + 1) * len];
                         self.deposit(&s, buf, &mut out.steady[j], values.as_mut(), j * len);
-                    });
+                    },
+                );
                 if let Some(v) = values.as_mut() {
                     v.finish(&mut out.squares);
                 }

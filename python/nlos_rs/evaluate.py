@@ -3,19 +3,22 @@ I. Tienda Hernando, *Técnicas de muestreo para simulación de transporte de luz
 visión* (Sampling techniques for non-line-of-sight light transport simulation), bachelor's thesis
 (Trabajo Fin de Grado), Universidad de Zaragoza, 2023.
 
-    python -m nlos_rs.evaluate [--scene z_nlos_1corner] [--spp N] [--gt-spp N] [--out DIR] ...
+    python -m nlos_rs.evaluate [--scene z_nlos_1corner | FILE.xml] [--spp N] [--gt-spp N] [--out DIR] ...
 
-For a scene it renders (and caches) a ground truth with the baseline integrator at ``--gt-spp``,
-then the baseline (``transient_nlos_path`` with laser + hidden-geometry sampling, or for the Cornell
-box ``transient_path``), HGRS with both estimators (``transient_nlos_path_rs``, NLOS scenes only),
-the Gaussian kernel and the Epanechnikov kernel:
+For a scene (built in, or any Mitsuba XML file such as mitransient's examples) it renders (and
+caches) a ground truth with nlos_rs' defaults at ``--gt-spp``, then the thesis' techniques — the
+baseline (``transient_nlos_path`` with laser + hidden-geometry sampling and one path per scan point,
+or for the Cornell box ``transient_path``), HGRS with both estimators (``transient_nlos_path_rs``,
+NLOS scenes only), the Gaussian kernel and the Epanechnikov kernel — and the techniques beyond it:
+nlos_rs' defaults (sample reuse across scan points), the same with an automatic Gaussian width, and
+mitransient itself (when installed):
 
 * at equal samples per pixel (``--spp``), and
-* at equal time: each technique gets the baseline's render time at ``--spp`` (or ``--time-budget``
-  seconds), its spp scaled from a calibration render.
+* at equal time: each technique gets mitransient's render time at ``--spp`` (the baseline's without
+  mitransient, or ``--time-budget`` seconds), its spp scaled from the equal-spp render.
 
 It writes ``results.md`` (spp, time, MSE and PSNR of thesis eq. 5.1/5.2 against the ground truth,
-change vs the baseline), ``results.json``, and PNG plots (radiance against time at one pixel; MSE
+whose own noise is subtracted; change vs the baseline; mitransient's MSE over each), ``results.json``, and PNG plots (radiance against time at one pixel; MSE
 and PSNR bars). Two-corner scenes are evaluated on their five-vertex signal (``filter_bounces=4``),
 the light that went through both corners, as the thesis evaluates them.
 """
@@ -72,12 +75,12 @@ def options(name: str, args) -> dict:
     }[name]
 
 
-def scene_of(name: str, d: dict):
+def scene_of(name: str, scene):
     """The scene a technique renders: the thesis' techniques trace one path per scan point (as the
     thesis and mitransient do); the others take nlos_rs' defaults."""
-    if name in THESIS and d["integrator"]["type"].startswith("transient_nlos"):
-        d = {**d, "integrator": {**d["integrator"], "nlos_sample_reuse": False}}
-    return nlos_rs.load_dict(d)
+    if name in THESIS and scene.integrator.startswith("transient_nlos"):
+        return scene.with_sample_reuse(False)
+    return scene
 
 
 def timed(scene, spp: int, seed: int, threads, **kw):
@@ -86,26 +89,38 @@ def timed(scene, spp: int, seed: int, threads, **kw):
     return transient, time.perf_counter() - t0
 
 
-def timed_mitransient(d: dict, spp: int, seed: int, threads, shape):
-    """mitransient's render of the same scene dict (warm: a first small render compiles its kernels)."""
+def timed_mitransient(src, spp: int, seed: int, threads, shape):
+    """mitransient's render of the same scene (a dict or an XML file)."""
     import drjit as dr
 
-    from .mitsuba_compat import render_mitransient
+    from .mitsuba_compat import import_mitransient, to_mitsuba
 
+    mi, _ = import_mitransient("llvm_ad_mono")
     if threads:
         dr.set_thread_count(threads)
-    _, transient, seconds = render_mitransient(d, spp=spp, seed=seed)
+    scene = mi.load_file(str(src)) if isinstance(src, (str, Path)) else mi.load_dict(to_mitsuba(src))
+    t0 = time.perf_counter()
+    _, transient = mi.render(scene, spp=spp, seed=seed)
+    dr.eval(transient)
+    dr.sync_thread()
+    seconds = time.perf_counter() - t0
     return np.asarray(transient, np.float32).reshape(shape), seconds
 
 
-def ground_truth(scene, args, out: Path) -> np.ndarray:
-    path = out / f"gt_{args.scene}_{args.size}px_{args.gt_spp}spp.npz"
+def ground_truth(scene, args, out: Path):
+    """The ground truth and its own noise: the mean over values of its variance of the mean, which
+    every MSE against it contains (E‖x − g‖² = E‖x − μ‖² + E‖g − μ‖² for independent x, g); the
+    tables subtract it."""
+    path = out / f"gt_{Path(args.scene).stem}_{args.size}px_{args.gt_spp}spp_v2.npz"
     if path.exists():
-        return np.load(path)["transient"]
+        f = np.load(path)
+        return f["transient"], float(f["noise"])
     print(f"rendering the ground truth ({args.gt_spp} spp) ...", flush=True)
-    _, transient = nlos_rs.render(scene, spp=args.gt_spp, seed=10_000, threads=args.threads, progress=True)
-    np.savez_compressed(path, transient=transient)
-    return transient
+    _, transient, variance = nlos_rs.render(scene, spp=args.gt_spp, seed=10_000, threads=args.threads, progress=True,
+                                            return_variance=True)
+    noise = float(np.mean(variance, dtype=np.float64))
+    np.savez_compressed(path, transient=transient, noise=noise)
+    return transient, noise
 
 
 def fmt_time(s: float) -> str:
@@ -160,7 +175,8 @@ def plots(out: Path, gt: np.ndarray, curves: Dict[str, np.ndarray], rows: List[D
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(prog="python -m nlos_rs.evaluate", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--scene", default="z_nlos_1corner", choices=list(SCENES), help="built-in scene (default: z_nlos_1corner)")
+    ap.add_argument("--scene", default="z_nlos_1corner",
+                    help=f"a built-in scene ({', '.join(SCENES)}; default z_nlos_1corner) or a Mitsuba XML file")
     ap.add_argument("--size", type=int, help="scan grid / image size (default: 32 for Z, 16 for the T scenes, 64 for the Cornell box)")
     ap.add_argument("--spp", type=int, help="samples per pixel of the compared renders (default: the thesis' 30,000 Z, 100,000 T small, 10,000 T big)")
     ap.add_argument("--gt-spp", type=int, help="samples per pixel of the ground truth (default: 2^20; 2^23 for T small)")
@@ -168,12 +184,15 @@ def main(argv=None) -> int:
     ap.add_argument("--sigma", type=float, help="Gaussian kernel sigma in bins (default: the thesis' 1 for Z, 2 for T)")
     ap.add_argument("--bandwidth", type=float, help="Epanechnikov bandwidth in bins (default: the thesis' 2 for Z, 3 for T)")
     ap.add_argument("--hgrs-iterations", type=int, default=10, help="HGRS draws per vertex (default 10, as the thesis)")
-    ap.add_argument("--time-budget", type=float, help="seconds per technique at equal time (default: the baseline's time at --spp)")
+    ap.add_argument("--time-budget", type=float, help="seconds per technique at equal time (default: mitransient's time at --spp, else the baseline's)")
     ap.add_argument("--threads", type=int, help="worker threads (default: all cores)")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--out", default="nlos_rs_evaluation", help="output folder (ground truth cached there)")
     args = ap.parse_args(argv)
-    size, spp, gt_spp, sigma, bandwidth = DEFAULTS[args.scene]
+    is_file = args.scene not in SCENES
+    if is_file and not Path(args.scene).is_file():
+        ap.error(f"--scene must be one of {list(SCENES)} or an XML file, got {args.scene!r}")
+    size, spp, gt_spp, sigma, bandwidth = DEFAULTS.get(args.scene, (0, 4096, 1 << 18, 1.0, 2.0))
     args.size, args.spp, args.gt_spp = args.size or size, args.spp or spp, args.gt_spp or gt_spp
     args.sigma, args.bandwidth = args.sigma or sigma, args.bandwidth or bandwidth
     techniques = [t.strip() for t in args.techniques.split(",") if t.strip()]
@@ -185,31 +204,37 @@ def main(argv=None) -> int:
         techniques.remove("mitransient")
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    d = SCENES[args.scene](args.size)
-    scenes = {name: scene_of(name, d) for name in techniques if name != "mitransient"}
+    src = Path(args.scene) if is_file else SCENES[args.scene](args.size)
+    loaded = nlos_rs.load_file(src) if is_file else nlos_rs.load_dict(src)
+    if is_file:
+        args.size = loaded.film_size[0]
+    scenes = {name: scene_of(name, loaded) for name in techniques if name != "mitransient"}
     scene = scenes["baseline"]
     if scene.integrator == "transient_path":  # HGRS and sample reuse are NLOS techniques
         techniques = [t for t in techniques if not t.startswith(("hgrs", "reuse"))]
     bins, dt, t0 = scene.temporal
-    gt = ground_truth(scenes.get("reuse", scene), args, out)
+    gt, gt_noise = ground_truth(scenes.get("reuse", scene), args, out)
 
     def evaluate(name: str, n: int):
         if name == "mitransient":
-            t, seconds = timed_mitransient(d, n, args.seed, args.threads, gt.shape)
+            t, seconds = timed_mitransient(src, n, args.seed, args.threads, gt.shape)
         else:
             t, seconds = timed(scenes[name], n, args.seed, args.threads, **options(name, args))
-        return t, {"technique": name, "spp": n, "time": seconds, "mse": metrics.mse(gt, t), "psnr": metrics.psnr(gt, t)}
+        mse = metrics.mse(gt, t) - gt_noise
+        psnr = 20 * np.log10(float(gt.max())) - 10 * np.log10(mse)
+        return t, {"technique": name, "spp": n, "time": seconds, "mse": mse, "psnr": float(psnr)}
 
     timed(scene, 16, args.seed, args.threads)  # warm-up
     if "mitransient" in techniques:
-        timed_mitransient(d, 16, args.seed, args.threads, gt.shape)
+        timed_mitransient(src, 16, args.seed, args.threads, gt.shape)
     equal_spp, curves = [], {}
     for name in techniques:
         t, row = evaluate(name, args.spp)
         equal_spp.append(row)
         curves[name] = t
         print(f"equal spp  {name:15s} {row['spp']:>9,} spp {fmt_time(row['time']):>10s}  MSE {row['mse']:.3e}  PSNR {row['psnr']:.2f}", flush=True)
-    budget = args.time_budget or equal_spp[0]["time"]
+    # Equal time: mitransient's time at --spp where it runs, else the baseline's.
+    budget = args.time_budget or next((r["time"] for r in equal_spp if r["technique"] == "mitransient"), equal_spp[0]["time"])
     equal_time = []
     for row in equal_spp:
         n = max(1, int(round(row["spp"] * budget / row["time"])))
@@ -219,7 +244,7 @@ def main(argv=None) -> int:
     plots(out, gt, curves, equal_spp, t0, dt, "equal_spp")
     plots(out, gt, {}, equal_time, t0, dt, "equal_time")
     header = (f"### {args.scene}: {args.size}x{args.size} scan, {bins} bins x {dt} m from {t0} m; ground truth {args.gt_spp:,} spp "
-              f"(nlos_rs defaults); HGRS N = {args.hgrs_iterations}, Gaussian sigma = {args.sigma}, Epanechnikov b = {args.bandwidth} bins; "
+              f"(nlos_rs defaults; its noise, {gt_noise:.3g}, is subtracted from every MSE); HGRS N = {args.hgrs_iterations}, Gaussian sigma = {args.sigma}, Epanechnikov b = {args.bandwidth} bins; "
               f"nlos_rs {nlos_rs.__version__}, {args.threads or 'all'} threads")
     md = "\n\n".join([header, table(equal_spp, "Equal samples per pixel"), table(equal_time, f"Equal time ({fmt_time(budget)} each)")])
     (out / "results.md").write_text(md + "\n")

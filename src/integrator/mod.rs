@@ -80,13 +80,15 @@ pub trait Tracer: Sync {
     /// Trace one path sample of `pixel` (row-major), passing every contribution to `out`.
     fn trace(&self, pixel: usize, rng: &mut Sampler, out: &mut impl FnMut(Splat));
 
-    /// Trace one light subpath shared by the pixels `pixels`, passing every contribution to
-    /// `out(pixel, splat)` ([`sample_reuse`]; only called where [`shares_samples`] holds, so a
-    /// tracer that never shares, `transient_path`, keeps this empty default).
+    /// Trace one light subpath shared by the pixels `pixels` (each with its own stream in
+    /// `pixel_rngs`), passing every contribution to `out(pixel, splat)` ([`sample_reuse`]; only
+    /// called where [`shares_samples`] holds, so a tracer that never shares, `transient_path`,
+    /// keeps this empty default).
     fn trace_shared(
         &self,
         _pixels: Range<usize>,
         _rng: &mut Sampler,
+        _pixel_rngs: &mut [Sampler],
         _out: &mut impl FnMut(usize, Splat),
     ) {
     }

@@ -276,9 +276,10 @@ impl Tracer for NlosTracer<'_> {
         &self,
         pixels: std::ops::Range<usize>,
         rng: &mut Sampler,
+        pixel_rngs: &mut [Sampler],
         out: &mut impl FnMut(usize, Splat),
     ) {
-        NlosTracer::trace_shared(self, pixels, rng, out)
+        NlosTracer::trace_shared(self, pixels, rng, pixel_rngs, out)
     }
 
     /// Trace one path from the scan point of `pixel` (mitransient-model §3.2–3.3).

@@ -23,8 +23,7 @@ use std::ops::Range;
 
 /// Whether a render of `scene` shares light subpaths among scan points: `nlos_sample_reuse` is on,
 /// the capture is single with laser sampling and hidden-geometry sampling at every vertex (no
-/// HGRS, no technique mixture, no depth limit on it), scan points (not a camera) measure it, and no
-/// BSDF has a delta component (those paths are reached by BSDF sampling from the scan point's side,
+/// HGRS, no technique mixture, no depth limit on it), and no BSDF has a delta component (those paths are reached by BSDF sampling from the scan point's side,
 /// which a light subpath cannot mirror).
 pub fn shares_samples(scene: &Scene) -> bool {
     let Setup::Nlos(n) = &scene.setup else {
@@ -38,7 +37,6 @@ pub fn shares_samples(scene: &Scene) -> bool {
         && !s.hgs_rroulette
         && s.hgs_max_depth.is_none()
         && s.hgrs.is_none()
-        && n.camera.is_none()
         && !scene.shape_bsdfs(true).iter().any(Bsdf::has_delta)
 }
 
@@ -55,22 +53,29 @@ struct LightVertex {
 }
 
 impl NlosTracer<'_> {
-    /// One light subpath, connected to every scan point of `pixels`; `out(pixel, splat)`.
+    /// One light subpath, connected to every scan point of `pixels`; `out(pixel, splat)`. The
+    /// first vertex of each pixel is drawn anew from that pixel's own stream in `pixel_rngs` (a
+    /// camera's jittered ray; a scan point takes no randomness), so that no pixel's result depends on
+    /// which others share the run.
     pub(super) fn trace_shared(
         &self,
         pixels: Range<usize>,
         rng: &mut Sampler,
+        pixel_rngs: &mut [Sampler],
         out: &mut impl FnMut(usize, Splat),
     ) {
         let st = self.settings;
         let spot = &self.capture.spots[0];
-        // Scan points as the path's first vertex (no randomness without a camera).
-        let first = |p: usize, rng: &mut Sampler| self.first_vertex(p, rng);
+        let p0 = pixels.start;
+        let first: Vec<Option<Vertex>> = pixels
+            .clone()
+            .map(|p| self.first_vertex(p, &mut pixel_rngs[p - p0]))
+            .collect();
         // Scan point – spot paths, which the per-point tracer adds at every sample.
         if st.max_depth > 1 && st.keep(2) {
-            for p in pixels.clone() {
-                if let Some(v) = first(p, rng) {
-                    self.connect_spot(&v, spot, 0, &mut |s| out(p, s));
+            for (p, v) in pixels.clone().zip(&first) {
+                if let Some(v) = v {
+                    self.connect_spot(v, spot, 0, &mut |s| out(p, s));
                 }
             }
         }
@@ -106,9 +111,9 @@ impl NlosTracer<'_> {
             // ---- Connect this vertex to every scan point: a path of `count` hidden vertices,
             // depth count + 2 (the per-point tracer's emitter sampling at loop depth `count`).
             if v.count.saturating_add(1) < st.max_depth && st.keep(v.count + 2) {
-                for p in pixels.clone() {
-                    if let Some(x) = first(p, rng) {
-                        self.connect_scan_point(&x, &v, source, area, &mut |s| out(p, s));
+                for (p, x) in pixels.clone().zip(&first) {
+                    if let Some(x) = x {
+                        self.connect_scan_point(x, &v, source, area, &mut |s| out(p, s));
                     }
                 }
             }

@@ -395,6 +395,17 @@ impl PyScene {
     fn temporal_kernel(&self) -> (&'static str, f64) {
         self.get().meter.film.kernel.name_and_width()
     }
+    /// The same scene with sample reuse across scan points (`nlos_sample_reuse`) on or off.
+    fn with_sample_reuse(&self, on: bool) -> PyResult<PyScene> {
+        let mut s = (*self.get()).clone();
+        let crate::scene::Setup::Nlos(n) = &mut s.setup else {
+            return Err(SceneError::new_err(
+                "sample reuse is for NLOS scenes (transient_nlos_path / _rs)",
+            ));
+        };
+        n.settings.sample_reuse = on;
+        Ok(PyScene::wrap(s))
+    }
     /// The same scene under another integrator ('transient_nlos_path' or 'transient_nlos_path_rs'),
     /// keeping every other parameter.
     #[pyo3(signature = (name, hgrs_max_iterations=None, hgrs_estimator=None))]

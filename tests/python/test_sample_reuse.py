@@ -4,6 +4,7 @@ one path per scan point, the estimator mitransient uses, across independent repl
 bit-identical whatever the threads or the split into parts, and fall back where it does not apply."""
 
 import copy
+import os
 
 import numpy as np
 import pytest
@@ -32,8 +33,13 @@ def glossy_wall_one_sided_box(**kw):
     return d
 
 
+SIMPLE = os.path.join(os.path.dirname(__file__), "..", "data", "mitransient", "transient-nlos", "nlos-z-simple.xml")
+
 CASES = {
     "Z, unbounded depth": lambda **kw: z(spp=4096, **kw),
+    # mitransient's own file: a perspective camera looks at the relay wall (a jittered first vertex).
+    "mitransient nlos-z-simple.xml (camera)": lambda nlos_sample_reuse: nlos_rs.load_file(
+        SIMPLE).with_sample_reuse(nlos_sample_reuse),
     "Z, rgb, first and last legs, no direct paths": lambda **kw: z(spp=4096, account_first_and_last_bounces=True,
                                                                   discard_direct_paths=True, **kw),
     "T small, five-vertex signal": lambda **kw: scenes.t_nlos_2corner("small", width=6, height=6, spp=8192,
@@ -53,7 +59,8 @@ def test_reuse_agrees_with_one_path_per_scan_point(case):
     runs = {}
     for reuse, first_seed in ((False, 0), (True, 1000)):
         d = CASES[case](nlos_sample_reuse=reuse)
-        runs[reuse] = np.array([nlos_rs.render(d, seed=first_seed + k, variant=variant, progress=False)[1].sum(-1)
+        spp = 1024 if "camera" in case else None
+        runs[reuse] = np.array([nlos_rs.render(d, spp=spp, seed=first_seed + k, variant=variant, progress=False)[1].sum(-1)
                                 for k in range(REPS)])
     assert runs[True].sum() > 0 and runs[True].shape == runs[False].shape
     res = agreement(features(runs[True]), features(runs[False]))
