@@ -177,3 +177,31 @@ fn phasor_frequencies_follow_the_fft_grid_and_put_is_the_fourier_term() {
         assert!((out[2 * k + 1] as f64 - 2.0 * phase.sin()).abs() < 1e-5);
     }
 }
+
+#[test]
+fn auto_width_weights_conserve_energy_and_the_risk_picks_by_noise() {
+    use nlos_rs::film::auto_width::{expected_weights, risks, smoothers};
+    for k in [
+        TemporalKernel::Gaussian(0.7),
+        TemporalKernel::Triweight(3.0),
+        TemporalKernel::Cosine(1.3),
+    ] {
+        let sum: f64 = expected_weights(k).iter().sum();
+        assert!((sum - 1.0).abs() < 1e-9, "{k:?}: {sum}");
+    }
+    let s = smoothers(TemporalKernel::Gaussian(1.0), 200);
+    // A sharp pulse known exactly (no variance): the box has the least risk.
+    let mut pulse = vec![0.0f32; 200];
+    pulse[100] = 1.0;
+    let r = risks(&pulse, &[0.0; 200], 1, &s);
+    assert!(r.iter().skip(1).all(|&x| x > r[0]));
+    // A broad pulse (σ = 30 bins) under noise: a wide kernel (σ ≥ 4 bins), far below the box's
+    // risk.
+    let mut rng = Sampler::new(1, 2, 3);
+    let noisy: Vec<f32> = (0..200)
+        .map(|i| (-((i as f32 - 100.0) / 30.0).powi(2) / 2.0).exp() + 0.3 * (rng.next_1d() - 0.5))
+        .collect();
+    let r = risks(&noisy, &[0.0075; 200], 1, &s);
+    let best = (0..r.len()).min_by(|&a, &b| r[a].total_cmp(&r[b])).unwrap();
+    assert!(best >= 7 && r[best] < 0.2 * r[0], "{best}: {r:?}");
+}

@@ -104,8 +104,8 @@ pub struct NlosSettings {
     /// `temporal_filter='gaussian'` with `gaussian_stddev` (bins), applied to the film.
     pub temporal_kernel: Option<TemporalKernel>,
     /// `nlos_sample_reuse`: share each light subpath among all scan points where the estimator
-    /// allows it ([`crate::integrator::shares_samples`]); off renders one path per scan point, as
-    /// mitransient does.
+    /// allows it (`integrator/sample_reuse.rs` says where); off renders one path per scan point,
+    /// as mitransient does.
     pub sample_reuse: bool,
 }
 

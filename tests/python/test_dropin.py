@@ -253,7 +253,11 @@ def test_mitransient_camera_nlos_examples(peer, name):
 
     mi, _ = import_mitransient("llvm_ad_mono")
     path = DATA / "transient-nlos" / name
-    ours = np.array([render(str(path), spp=512, seed=k)[1] for k in range(REPS)])
+    # One path per pixel, as mitransient traces them (sample reuse, the default, is checked against
+    # this estimator on the same file in test_sample_reuse.py; its correlated scan points make the
+    # capture's total too noisy for the 3 % bound below at this spp).
+    scene = nlos_rs.load_file(str(path)).with_sample_reuse(False)
+    ours = np.array([render(scene, spp=512, seed=k)[1] for k in range(REPS)])
     theirs = np.array([np.array(mi.render(mi.load_file(str(path)), spp=512, seed=k)[1]) for k in range(REPS)])
     assert ours.shape == theirs.shape == (REPS, 32, 32, 300, 1)
 
