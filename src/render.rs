@@ -225,11 +225,10 @@ impl Plan {
         let pixels = film.width * film.height;
         // Adaptive sampling follows each pixel's samples in order: one chunk.
         let whole = opts.target_rel_error.is_some();
-        let shared = !whole && crate::integrator::shares_samples(scene);
+        // A single scan point has no one to share its light samples with.
+        let shared = !whole && pixels > 1 && crate::integrator::shares_samples(scene);
         let chunks = if whole {
             1
-        } else if shared {
-            shared_chunks(spp, pixels as u64 * (pixel_len * 4) as u64)
         } else {
             chunks_per_pixel(pixels as u64, spp, (pixel_len * 4) as u64)
         };
@@ -786,11 +785,12 @@ impl<'a, T: Tracer> Sampling<'a, T> {
         Ok(start - first)
     }
 
-    /// Light samples [first, end) of a shared render, connected to the pixels `pixels`. A pixel's
-    /// sums do not depend on which other pixels share the run.
+    /// Light samples [first, end) of a shared render, connected to the pixels `pixels`. A block
+    /// of light subpaths is traced first, then connected pixel by pixel (each pixel's buffer stays
+    /// in cache); a pixel adds its contributions in light-sample order, so its sums do not depend
+    /// on which other pixels share the run.
     fn trace_shared(&self, pixels: Range<usize>, first: u64, end: u64) -> Result<RunSums> {
         let len = self.plan.pixel_len;
-        let p0 = pixels.start;
         let mut out = RunSums {
             transient: vec![0.0f32; pixels.len() * len],
             steady: vec![[0.0f64; 3]; pixels.len()],
@@ -803,34 +803,29 @@ impl<'a, T: Tracer> Sampling<'a, T> {
                 }
             ],
         };
-        let mut values = self
-            .plan
-            .variance
-            .then(|| SampleValues::new(pixels.len() * len));
+        let mut values = self.plan.variance.then(|| SampleValues::new(len));
         let cancel = &self.monitor.cancel;
         let mut start = first;
         while start < end {
             let n = BLOCK.min(end - start);
-            // One stream per block of light samples, the same for every pixel, and each pixel's
-            // own stream of the block for its first vertex.
+            // One stream per block of light samples, the same for every pixel.
             let mut rng = Sampler::new(self.plan.seed, SHARED_STREAM, start / BLOCK);
-            let mut pixel_rngs: Vec<Sampler> = pixels
-                .clone()
-                .map(|p| Sampler::new(self.plan.seed, p as u64, start / BLOCK))
-                .collect();
-            for _ in 0..n {
-                self.tracer.trace_shared(
-                    pixels.clone(),
-                    &mut rng,
-                    &mut pixel_rngs,
-                    &mut |p, s: Splat| {
-                        let j = p - p0;
-                        let buf = &mut out.transient[j * len..(j + 1) * len];
-                        self.deposit(&s, buf, &mut out.steady[j], values.as_mut(), j * len);
-                    },
+            let lights: Vec<_> = (0..n).map(|_| self.tracer.trace_light(&mut rng)).collect();
+            for (j, pixel) in pixels.clone().enumerate() {
+                // Each pixel's own stream of the block, for its first vertex.
+                let mut pixel_rng = Sampler::new(self.plan.seed, pixel as u64, start / BLOCK);
+                let (buf, sum) = (
+                    &mut out.transient[j * len..(j + 1) * len],
+                    &mut out.steady[j],
                 );
-                if let Some(v) = values.as_mut() {
-                    v.finish(&mut out.squares);
+                for light in &lights {
+                    self.tracer
+                        .connect_light(pixel, &mut pixel_rng, light.as_ref(), &mut |s| {
+                            self.deposit(&s, buf, sum, values.as_mut(), 0);
+                        });
+                    if let Some(v) = values.as_mut() {
+                        v.finish(&mut out.squares[j * len..(j + 1) * len]);
+                    }
                 }
                 if cancel.load(Ordering::Relaxed) {
                     return Err(NlosError::Interrupted);
@@ -947,22 +942,12 @@ const MIN_TASKS: u64 = 64;
 /// Largest memory (bytes) the per-chunk buffers of a split render may take.
 const CHUNK_MEMORY: u64 = 256 << 20;
 
-/// Most chunks a shared render's light samples are split into (each holds a whole film while the
-/// render runs).
-const SHARED_CHUNKS: u64 = 16;
-
-/// Chunks of a shared render's `spp` light samples (whole blocks): [`SHARED_CHUNKS`] within
-/// [`CHUNK_MEMORY`] for a film of `film_bytes`; a function of the capture only, as
-/// [`chunks_per_pixel`].
-fn shared_chunks(spp: u64, film_bytes: u64) -> u64 {
-    let by_memory = CHUNK_MEMORY / film_bytes.max(1);
-    SHARED_CHUNKS.min(by_memory).min(spp.div_ceil(BLOCK)).max(1)
-}
-
-/// Chunks each pixel's `spp` samples are split into. It depends on the capture only, never on the
-/// thread count, so results stay bit-identical whatever the threads: one chunk (the whole pixel in
-/// one task, in sample order) for films of [`MIN_TASKS`] pixels or more; otherwise enough chunks of
-/// whole [`BLOCK`]s for [`MIN_TASKS`] tasks, within [`CHUNK_MEMORY`].
+/// Chunks each pixel's `spp` samples (or a shared render's light samples) are split into. It
+/// depends on the capture only, never on the thread count, so results stay bit-identical whatever
+/// the threads: one chunk (the whole pixel in one task, in sample order) for films of
+/// [`MIN_TASKS`] pixels or more; otherwise enough chunks of whole [`BLOCK`]s for [`MIN_TASKS`]
+/// tasks, within [`CHUNK_MEMORY`]. A shared render splits its pixels into runs besides (each run
+/// retraces the light subpaths), which changes no pixel's sums.
 fn chunks_per_pixel(npix: u64, spp: u64, pixel_bytes: u64) -> u64 {
     let blocks = spp.div_ceil(BLOCK);
     let by_memory = (CHUNK_MEMORY / (npix * pixel_bytes).max(1)).max(1);

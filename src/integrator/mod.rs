@@ -18,7 +18,6 @@ use crate::geometry::Interaction;
 use crate::math::Spectrum;
 use crate::sampling::Sampler;
 use glam::Vec3A;
-use std::ops::Range;
 
 /// One contribution of a path: its value, optical path length and laser slot (exhaustive captures;
 /// 0 otherwise). The film's splatter spreads it over time bins.
@@ -80,16 +79,24 @@ pub trait Tracer: Sync {
     /// Trace one path sample of `pixel` (row-major), passing every contribution to `out`.
     fn trace(&self, pixel: usize, rng: &mut Sampler, out: &mut impl FnMut(Splat));
 
-    /// Trace one light subpath shared by the pixels `pixels` (each with its own stream in
-    /// `pixel_rngs`), passing every contribution to `out(pixel, splat)` ([`sample_reuse`]; only
-    /// called where [`shares_samples`] holds, so a tracer that never shares, `transient_path`,
-    /// keeps this empty default).
-    fn trace_shared(
+    /// A light subpath shared by all pixels ([`sample_reuse`]); `()` for a tracer that never
+    /// shares (`transient_path`).
+    type Light;
+
+    /// Trace one light subpath (only called where [`shares_samples`] holds); `None` if it
+    /// reaches nothing to connect.
+    fn trace_light(&self, _rng: &mut Sampler) -> Option<Self::Light> {
+        None
+    }
+
+    /// Pass the contributions of one light sample (`light`, possibly empty) to pixel `pixel`,
+    /// whose own stream `pixel_rng` draws its first vertex.
+    fn connect_light(
         &self,
-        _pixels: Range<usize>,
-        _rng: &mut Sampler,
-        _pixel_rngs: &mut [Sampler],
-        _out: &mut impl FnMut(usize, Splat),
+        _pixel: usize,
+        _pixel_rng: &mut Sampler,
+        _light: Option<&Self::Light>,
+        _out: &mut impl FnMut(Splat),
     ) {
     }
 }

@@ -272,14 +272,20 @@ impl<'a> NlosTracer<'a> {
 }
 
 impl Tracer for NlosTracer<'_> {
-    fn trace_shared(
+    type Light = super::sample_reuse::LightPath;
+
+    fn trace_light(&self, rng: &mut Sampler) -> Option<Self::Light> {
+        NlosTracer::trace_light(self, rng)
+    }
+
+    fn connect_light(
         &self,
-        pixels: std::ops::Range<usize>,
-        rng: &mut Sampler,
-        pixel_rngs: &mut [Sampler],
-        out: &mut impl FnMut(usize, Splat),
+        pixel: usize,
+        pixel_rng: &mut Sampler,
+        light: Option<&Self::Light>,
+        out: &mut impl FnMut(Splat),
     ) {
-        NlosTracer::trace_shared(self, pixels, rng, pixel_rngs, out)
+        NlosTracer::connect_light(self, pixel, pixel_rng, light, out)
     }
 
     /// Trace one path from the scan point of `pixel` (mitransient-model §3.2–3.3).

@@ -176,6 +176,8 @@ impl<'a> PathTracer<'a> {
 }
 
 impl Tracer for PathTracer<'_> {
+    type Light = ();
+
     /// Trace one camera path through pixel `pixel` (row-major), emitting its contributions.
     fn trace(&self, pixel: usize, rng: &mut Sampler, out: &mut impl FnMut(Splat)) {
         let st = self.settings;

@@ -19,7 +19,6 @@ use crate::sampling::Sampler;
 use crate::scene::{Scene, Setup};
 use crate::settings::CaptureType;
 use glam::Vec3A;
-use std::ops::Range;
 
 /// Whether a render of `scene` shares light subpaths among scan points: `nlos_sample_reuse` is on,
 /// the capture is single with laser sampling and hidden-geometry sampling at every vertex (no
@@ -40,50 +39,30 @@ pub fn shares_samples(scene: &Scene) -> bool {
         && !scene.shape_bsdfs(true).iter().any(Bsdf::has_delta)
 }
 
-/// A vertex of the light subpath: the hidden point, the direction towards the previous vertex
-/// (the laser side), the throughput up to it without its own BSDF, and the optical path from it
-/// back to the laser.
+/// A vertex of a light subpath: the hidden point, the direction towards the previous vertex (the
+/// laser side), the throughput up to it without its own BSDF (the spot's radiance included), and
+/// the optical path from it back to the laser.
 struct LightVertex {
     it: crate::geometry::Interaction,
     to_light: Vec3A,
-    beta: Spectrum,
+    weight: Spectrum,
     opl: f64,
-    /// Hidden vertices so far, this one included.
-    count: u32,
+}
+
+/// One light subpath: its vertices that connect to scan points (those whose path depth passes
+/// `max_depth` and `filter_bounces`).
+pub struct LightPath {
+    vertices: Vec<LightVertex>,
 }
 
 impl NlosTracer<'_> {
-    /// One light subpath, connected to every scan point of `pixels`; `out(pixel, splat)`. The
-    /// first vertex of each pixel is drawn anew from that pixel's own stream in `pixel_rngs` (a
-    /// camera's jittered ray; a scan point takes no randomness), so that no pixel's result depends on
-    /// which others share the run.
-    pub(super) fn trace_shared(
-        &self,
-        pixels: Range<usize>,
-        rng: &mut Sampler,
-        pixel_rngs: &mut [Sampler],
-        out: &mut impl FnMut(usize, Splat),
-    ) {
+    /// Trace one light subpath from the laser spot through the hidden geometry.
+    pub(super) fn trace_light(&self, rng: &mut Sampler) -> Option<LightPath> {
         let st = self.settings;
         let spot = &self.capture.spots[0];
-        let p0 = pixels.start;
-        let first: Vec<Option<Vertex>> = pixels
-            .clone()
-            .map(|p| self.first_vertex(p, &mut pixel_rngs[p - p0]))
-            .collect();
-        // Scan point – spot paths, which the per-point tracer adds at every sample.
-        if st.max_depth > 1 && st.keep(2) {
-            for (p, v) in pixels.clone().zip(&first) {
-                if let Some(v) = v {
-                    self.connect_spot(v, spot, 0, &mut |s| out(p, s));
-                }
-            }
-        }
-        let Some(hg) = self.hidden.as_ref() else {
-            return;
-        };
+        let hg = self.hidden.as_ref()?;
         if spot.radiance == Some(Spectrum::ZERO) || spot.incident == Spectrum::ZERO {
-            return;
+            return None;
         }
         let area = hg.total_area();
         // ---- The first hidden vertex, lit by the spot (connect_spot's terms, from the other end).
@@ -94,73 +73,91 @@ impl NlosTracer<'_> {
         let w = u / r;
         let cos_z = spot.it.ns.dot(-w);
         if cos_z <= 0.0 || !self.scene.visible(&y, spot.it.p) {
-            return;
+            return None;
         }
-        let Some(radiance) = self.spot_radiance(spot, w) else {
-            return;
+        let source = self.spot_radiance(spot, w)? * (cos_z / r2);
+        let mut path = LightPath {
+            vertices: Vec::new(),
         };
-        let source = radiance * (cos_z / r2);
-        let mut v = LightVertex {
-            it: y,
-            to_light: w,
-            beta: Spectrum::splat(area),
-            opl: r as f64 + spot.last_leg,
-            count: 1,
-        };
+        // The vertex's area density (1/A) is in `beta`; Russian roulette reads `beta` alone.
+        let (mut it, mut to_light, mut beta) = (y, w, Spectrum::splat(area));
+        let mut opl = r as f64 + spot.last_leg;
+        let mut count: u32 = 1;
         loop {
-            // ---- Connect this vertex to every scan point: a path of `count` hidden vertices,
-            // depth count + 2 (the per-point tracer's emitter sampling at loop depth `count`).
-            if v.count.saturating_add(1) < st.max_depth && st.keep(v.count + 2) {
-                for (p, x) in pixels.clone().zip(&first) {
-                    if let Some(x) = x {
-                        self.connect_scan_point(x, &v, source, area, &mut |s| out(p, s));
-                    }
-                }
+            // A path of `count` hidden vertices has depth count + 2 (the per-point tracer's
+            // emitter sampling at loop depth `count`).
+            if count.saturating_add(1) < st.max_depth && st.keep(count + 2) {
+                path.vertices.push(LightVertex {
+                    it,
+                    to_light,
+                    weight: beta * source,
+                    opl,
+                });
             }
             // ---- The next hidden vertex, on the scan point's side of this one.
-            if v.count.saturating_add(2) >= st.max_depth
-                || st.filter_depth.is_some_and(|f| v.count + 3 > f)
+            if count.saturating_add(2) >= st.max_depth
+                || st.filter_depth.is_some_and(|f| count + 3 > f)
             {
                 break;
             }
             let x = hg.sample(self.scene, rng);
-            let d = v.it.p - x.p;
+            let d = it.p - x.p;
             let r2 = d.length_squared();
             let r = r2.sqrt();
             let w = d / r;
-            let cos_g = v.it.ns.dot(-w);
+            let cos_g = it.ns.dot(-w);
             if x.ng.dot(w) <= COS_EPS || cos_g <= COS_EPS || r2 / (area * cos_g) <= COS_EPS {
                 break;
             }
-            let Some(f) = self.bsdf(&v.it).eval(v.it.ns, -w, v.to_light) else {
+            let Some(f) = self.bsdf(&it).eval(it.ns, -w, to_light) else {
                 break;
             };
-            if !self.scene.visible(&x, v.it.p) {
+            if !self.scene.visible(&x, it.p) {
                 break;
             }
-            let mut beta = v.beta * f * (area * cos_g / r2);
-            if !russian_roulette(&mut beta, 1.0, v.count, st.rr_depth, rng) {
+            beta *= f * (area * cos_g / r2);
+            if !russian_roulette(&mut beta, 1.0, count, st.rr_depth, rng) {
                 break;
             }
-            v = LightVertex {
-                it: x,
-                to_light: w,
-                beta,
-                opl: v.opl + r as f64,
-                count: v.count + 1,
-            };
+            (it, to_light, opl, count) = (x, w, opl + r as f64, count + 1);
+        }
+        Some(path)
+    }
+
+    /// The contributions of one light sample to `pixel`: its scan point – spot path (which the
+    /// per-point tracer adds at every sample) and the connection of every vertex of `light`. The
+    /// pixel's first vertex is drawn from its own stream `pixel_rng` (a camera's jittered ray; a
+    /// scan point takes no randomness), so no pixel's result depends on which others share it.
+    pub(super) fn connect_light(
+        &self,
+        pixel: usize,
+        pixel_rng: &mut Sampler,
+        light: Option<&LightPath>,
+        out: &mut impl FnMut(Splat),
+    ) {
+        let st = self.settings;
+        let Some(x) = self.first_vertex(pixel, pixel_rng) else {
+            return;
+        };
+        if st.max_depth > 1 && st.keep(2) {
+            self.connect_spot(&x, &self.capture.spots[0], 0, out);
+        }
+        let (Some(light), Some(hg)) = (light, self.hidden.as_ref()) else {
+            return;
+        };
+        for v in &light.vertices {
+            self.connect_scan_point(&x, v, hg.total_area(), out);
         }
     }
 
     /// The contribution of the path scan point `x` → light subpath ending at `v`: the terms of a
-    /// hidden-geometry step from `x` to `v` (whose area density is already in `v.beta`), `v`'s BSDF
-    /// between `x` and the laser side, and the subpath's throughput.
+    /// hidden-geometry step from `x` to `v` (whose area density is already in `v.weight`), `v`'s
+    /// BSDF between `x` and the laser side, and the subpath's throughput.
     #[inline]
     fn connect_scan_point(
         &self,
         x: &Vertex,
         v: &LightVertex,
-        source: Spectrum,
         area: f32,
         out: &mut impl FnMut(Splat),
     ) {
@@ -184,7 +181,7 @@ impl NlosTracer<'_> {
         out(Splat {
             slot: 0,
             opl: x.opl + r as f64 + v.opl,
-            value: x.beta * f_x * (cos_g / r2) * f_v * v.beta * source,
+            value: x.beta * f_x * (cos_g / r2) * f_v * v.weight,
         });
     }
 }
