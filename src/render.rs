@@ -319,7 +319,8 @@ pub fn render(scene: &Scene, opts: &RenderOptions, monitor: &Monitor) -> Result<
     let plan = Plan::new(scene, opts)?;
     let mut out = render_by(scene, opts, monitor, &plan)?;
     if let Some(kernel) = plan.auto_kernel {
-        choose_widths(&plan, kernel, &mut out);
+        // On the render's own pool (never rayon's global one: fork-safe).
+        pool(opts.threads)?.install(|| choose_widths(&plan, kernel, &mut out));
         if !opts.variance {
             out.variance = None;
         }

@@ -22,6 +22,35 @@ use crate::settings::{CaptureType, NlosSettings};
 use glam::Vec3A;
 use std::sync::atomic::{AtomicBool, Ordering};
 
+/// The edge x → y of a hidden-geometry step, y drawn uniformly over an area A: its length r, r²,
+/// unit direction w and the cosine at y, if x faces y, y faces x and the area density converts to a
+/// solid-angle one (r² / (A·cos_y) is not vanishing) (mitransient-model §3.3).
+pub(super) struct HiddenEdge {
+    /// Length.
+    pub(super) r: f32,
+    /// Squared length.
+    pub(super) r2: f32,
+    /// Unit direction from x to y.
+    pub(super) w: Vec3A,
+    /// Cosine at y (its shading normal towards x).
+    pub(super) cos_y: f32,
+}
+
+impl HiddenEdge {
+    #[inline]
+    pub(super) fn new(x: &Interaction, y: &Interaction, area: f32) -> Option<Self> {
+        let v = y.p - x.p;
+        let r2 = v.length_squared();
+        let r = r2.sqrt();
+        let w = v / r;
+        let cos_y = y.ns.dot(-w);
+        if x.ng.dot(w) <= COS_EPS || cos_y <= COS_EPS || r2 / (area * cos_y) <= COS_EPS {
+            return None;
+        }
+        Some(Self { r, r2, w, cos_y })
+    }
+}
+
 /// A prepared `transient_nlos_path(_rs)` render.
 pub struct NlosTracer<'a> {
     pub(super) scene: &'a Scene,
@@ -183,22 +212,15 @@ impl<'a> NlosTracer<'a> {
         rng: &mut Sampler,
     ) -> Option<Step> {
         let y = hg.sample(self.scene, rng);
-        let v = y.p - x.p;
-        let r2 = v.length_squared();
-        let r = r2.sqrt();
-        let w = v / r;
-        let cos_g = y.ns.dot(-w);
-        if x.ng.dot(w) <= COS_EPS || cos_g <= COS_EPS || r2 / (hg.total_area() * cos_g) <= COS_EPS {
-            return None;
-        }
-        let f = self.bsdf(x).eval(x.ns, wi, w)?;
+        let e = HiddenEdge::new(x, &y, hg.total_area())?;
+        let f = self.bsdf(x).eval(x.ns, wi, e.w)?;
         if !self.scene.visible(x, y.p) {
             return None;
         }
         Some(Step {
             next: y,
-            dist: r,
-            weight: f * (hg.total_area() * cos_g / r2),
+            dist: e.r,
+            weight: f * (hg.total_area() * e.cos_y / e.r2),
             eta: 1.0,
         })
     }

@@ -12,9 +12,10 @@
 //! applied to the scan grid, which shares the light subpath because every scan point of a single
 //! capture sees the same laser spot. docs/techniques.md states when it applies and what it gains.
 
+use super::nlos::HiddenEdge;
 use super::{NlosTracer, Splat, Vertex, russian_roulette};
 use crate::bsdf::Bsdf;
-use crate::math::{COS_EPS, Spectrum};
+use crate::math::Spectrum;
 use crate::sampling::Sampler;
 use crate::scene::{Scene, Setup};
 use crate::settings::CaptureType;
@@ -101,25 +102,20 @@ impl NlosTracer<'_> {
                 break;
             }
             let x = hg.sample(self.scene, rng);
-            let d = it.p - x.p;
-            let r2 = d.length_squared();
-            let r = r2.sqrt();
-            let w = d / r;
-            let cos_g = it.ns.dot(-w);
-            if x.ng.dot(w) <= COS_EPS || cos_g <= COS_EPS || r2 / (area * cos_g) <= COS_EPS {
+            let Some(e) = HiddenEdge::new(&x, &it, area) else {
                 break;
-            }
-            let Some(f) = self.bsdf(&it).eval(it.ns, -w, to_light) else {
+            };
+            let Some(f) = self.bsdf(&it).eval(it.ns, -e.w, to_light) else {
                 break;
             };
             if !self.scene.visible(&x, it.p) {
                 break;
             }
-            beta *= f * (area * cos_g / r2);
+            beta *= f * (area * e.cos_y / e.r2);
             if !russian_roulette(&mut beta, 1.0, count, st.rr_depth, rng) {
                 break;
             }
-            (it, to_light, opl, count) = (x, w, opl + r as f64, count + 1);
+            (it, to_light, opl, count) = (x, e.w, opl + e.r as f64, count + 1);
         }
         Some(path)
     }
@@ -161,18 +157,13 @@ impl NlosTracer<'_> {
         area: f32,
         out: &mut impl FnMut(Splat),
     ) {
-        let d = v.it.p - x.it.p;
-        let r2 = d.length_squared();
-        let r = r2.sqrt();
-        let w = d / r;
-        let cos_g = v.it.ns.dot(-w);
-        if x.it.ng.dot(w) <= COS_EPS || cos_g <= COS_EPS || r2 / (area * cos_g) <= COS_EPS {
-            return;
-        }
-        let Some(f_x) = self.bsdf(&x.it).eval(x.it.ns, x.wi, w) else {
+        let Some(e) = HiddenEdge::new(&x.it, &v.it, area) else {
             return;
         };
-        let Some(f_v) = self.bsdf(&v.it).eval(v.it.ns, -w, v.to_light) else {
+        let Some(f_x) = self.bsdf(&x.it).eval(x.it.ns, x.wi, e.w) else {
+            return;
+        };
+        let Some(f_v) = self.bsdf(&v.it).eval(v.it.ns, -e.w, v.to_light) else {
             return;
         };
         if !self.scene.visible(&x.it, v.it.p) {
@@ -180,8 +171,8 @@ impl NlosTracer<'_> {
         }
         out(Splat {
             slot: 0,
-            opl: x.opl + r as f64 + v.opl,
-            value: x.beta * f_x * (cos_g / r2) * f_v * v.weight,
+            opl: x.opl + e.r as f64 + v.opl,
+            value: x.beta * f_x * (e.cos_y / e.r2) * f_v * v.weight,
         });
     }
 }
