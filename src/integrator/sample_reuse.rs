@@ -13,7 +13,7 @@
 //! capture sees the same laser spot. docs/techniques.md states when it applies and what it gains.
 
 use super::nlos::HiddenEdge;
-use super::{NlosTracer, Splat, Vertex, russian_roulette};
+use super::{NlosTracer, Splat, Step, Vertex, hgrs, russian_roulette};
 use crate::bsdf::Bsdf;
 use crate::math::Spectrum;
 use crate::sampling::Sampler;
@@ -22,8 +22,8 @@ use crate::settings::CaptureType;
 use glam::Vec3A;
 
 /// Whether a render of `scene` shares light subpaths among scan points: `nlos_sample_reuse` is on,
-/// the capture is single with laser sampling and hidden-geometry sampling at every vertex (no
-/// HGRS, no technique mixture, no depth limit on it), and no BSDF has a delta component (those paths are reached by BSDF sampling from the scan point's side,
+/// the capture is single with laser sampling and hidden-geometry sampling (plain or HGRS) at every
+/// vertex (no technique mixture, no depth limit on it), and no BSDF has a delta component (those paths are reached by BSDF sampling from the scan point's side,
 /// which a light subpath cannot mirror).
 pub fn shares_samples(scene: &Scene) -> bool {
     let Setup::Nlos(n) = &scene.setup else {
@@ -36,7 +36,6 @@ pub fn shares_samples(scene: &Scene) -> bool {
         && s.hidden_geometry_sampling
         && !s.hgs_rroulette
         && s.hgs_max_depth.is_none()
-        && s.hgrs.is_none()
         && !scene.shape_bsdfs(true).iter().any(Bsdf::has_delta)
 }
 
@@ -57,7 +56,9 @@ pub struct LightPath {
 }
 
 impl NlosTracer<'_> {
-    /// Trace one light subpath from the laser spot through the hidden geometry.
+    /// Trace one light subpath from the laser spot through the hidden geometry. With
+    /// `transient_nlos_path_rs` every vertex is an HGRS step (`super::hgrs`): its N candidates and
+    /// their shadow rays are paid once for all scan points.
     pub(super) fn trace_light(&self, rng: &mut Sampler) -> Option<LightPath> {
         let st = self.settings;
         let spot = &self.capture.spots[0];
@@ -66,23 +67,40 @@ impl NlosTracer<'_> {
             return None;
         }
         let area = hg.total_area();
-        // ---- The first hidden vertex, lit by the spot (connect_spot's terms, from the other end).
-        let y = hg.sample(self.scene, rng);
-        let u = spot.it.p - y.p;
-        let r2 = u.length_squared();
-        let r = r2.sqrt();
-        let w = u / r;
-        let cos_z = spot.it.ns.dot(-w);
-        if cos_z <= 0.0 || !self.scene.visible(&y, spot.it.p) {
-            return None;
-        }
-        let source = self.spot_radiance(spot, w)? * (cos_z / r2);
+        let step =
+            |rng: &mut Sampler, candidate: &mut dyn FnMut(&mut Sampler) -> Option<Step>| match st
+                .hgrs
+            {
+                Some(h) => hgrs::sample(h, rng, candidate),
+                None => candidate(rng),
+            };
+        // ---- The first hidden vertex, lit by the spot (connect_spot's terms, from the other
+        // end), its area density 1/A included: the subpath's source.
+        let first = step(rng, &mut |rng| {
+            let y = hg.sample(self.scene, rng);
+            let u = spot.it.p - y.p;
+            let r2 = u.length_squared();
+            let r = r2.sqrt();
+            let w = u / r;
+            let cos_z = spot.it.ns.dot(-w);
+            if cos_z <= 0.0 || !self.scene.visible(&y, spot.it.p) {
+                return None;
+            }
+            Some(Step {
+                next: y,
+                dist: r,
+                weight: self.spot_radiance(spot, w)? * (area * cos_z / r2),
+                eta: 1.0,
+            })
+        })?;
+        let source = first.weight;
         let mut path = LightPath {
             vertices: Vec::new(),
         };
-        // The vertex's area density (1/A) is in `beta`; Russian roulette reads `beta` alone.
-        let (mut it, mut to_light, mut beta) = (y, w, Spectrum::splat(area));
-        let mut opl = r as f64 + spot.last_leg;
+        // Russian roulette reads the throughput after the source, `beta`.
+        let (mut it, mut beta) = (first.next, Spectrum::ONE);
+        let mut to_light = (spot.it.p - it.p).normalize();
+        let mut opl = first.dist as f64 + spot.last_leg;
         let mut count: u32 = 1;
         loop {
             // A path of `count` hidden vertices has depth count + 2 (the per-point tracer's
@@ -101,21 +119,29 @@ impl NlosTracer<'_> {
             {
                 break;
             }
-            let x = hg.sample(self.scene, rng);
-            let Some(e) = HiddenEdge::new(&x, &it, area) else {
+            let next = step(rng, &mut |rng| {
+                let x = hg.sample(self.scene, rng);
+                let e = HiddenEdge::new(&x, &it, area)?;
+                let f = self.bsdf(&it).eval(it.ns, -e.w, to_light)?;
+                if !self.scene.visible(&x, it.p) {
+                    return None;
+                }
+                Some(Step {
+                    next: x,
+                    dist: e.r,
+                    weight: f * (area * e.cos_y / e.r2),
+                    eta: 1.0,
+                })
+            });
+            let Some(next) = next else {
                 break;
             };
-            let Some(f) = self.bsdf(&it).eval(it.ns, -e.w, to_light) else {
-                break;
-            };
-            if !self.scene.visible(&x, it.p) {
-                break;
-            }
-            beta *= f * (area * e.cos_y / e.r2);
+            beta *= next.weight;
             if !russian_roulette(&mut beta, 1.0, count, st.rr_depth, rng) {
                 break;
             }
-            (it, to_light, opl, count) = (x, e.w, opl + e.r as f64, count + 1);
+            to_light = (it.p - next.next.p).normalize();
+            (it, opl, count) = (next.next, opl + next.dist as f64, count + 1);
         }
         Some(path)
     }

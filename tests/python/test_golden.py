@@ -32,6 +32,7 @@ CASES = {
     "single_per_point": lambda: (_z(nlos_sample_reuse=False), {}),
     "kde_gaussian_per_point": lambda: (_z(nlos_sample_reuse=False), {"kernel_sigma": 1.5}),
     "rgb_per_point": lambda: (_z(nlos_sample_reuse=False), {"variant": "rgb"}),
+    "hgrs_resampled_per_point": lambda: (_z(nlos_sample_reuse=False), {"integrator": "transient_nlos_path_rs"}),
     "two_corners_per_point": lambda: (scenes.t_nlos_2corner("small", width=4, height=4, spp=128, temporal_bins=200,
                                                             bin_width_opl=0.04, nlos_sample_reuse=False), {}),
     "confocal": lambda: (_z(capture_type="confocal"), {}),

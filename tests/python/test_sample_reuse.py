@@ -45,6 +45,9 @@ CASES = {
     "T small, five-vertex signal": lambda **kw: scenes.t_nlos_2corner("small", width=6, height=6, spp=8192,
                                                                       filter_bounces=4, **kw),
     "glossy relay wall, box, depth 6": lambda **kw: glossy_wall_one_sided_box(spp=4096, **kw),
+    # HGRS (resampled) on the light subpath: N candidates per vertex, paid once for all points.
+    "T small, five-vertex, HGRS": lambda **kw: scenes.t_nlos_2corner("small", width=6, height=6, spp=2048, filter_bounces=4,
+                                                                     type="transient_nlos_path_rs", **kw),
 }
 
 
@@ -95,7 +98,6 @@ def test_reuse_is_on_by_default_and_off_where_it_does_not_apply():
     for d, kw in [(z(spp=256, capture_type="confocal"), {}),
                   (z(width=2, height=2, spp=64, capture_type="exhaustive"), {}),
                   (z(spp=256, nlos_hidden_geometry_sampling_do_rroulette=True), {}),
-                  (z(spp=256), {"integrator": "transient_nlos_path_rs"}),
                   (z(spp=256), {"target_rel_error": 0.5})]:
         assert same(d, **kw), (d["integrator"], kw)
     mirror = z(spp=256)
