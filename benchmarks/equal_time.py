@@ -1,6 +1,6 @@
 """Equal-time error against mitransient (not a test): ``python -m nlos_rs.evaluate`` on scenes the
 project did not tune for — a one-sided flat letter behind one corner (albedo 0.7, unbounded depth),
-the T behind two corners (small secondary wall, five-vertex signal) and mitransient's own
+the T behind two corners (small and big secondary wall, five-vertex signal) and mitransient's own
 ``nlos-z-simple.xml`` (a perspective camera as the sensor) — each technique given mitransient's
 render time. Prints each scene's equal-time table (MSE against a high-spp ground truth whose own
 noise is subtracted; mitransient's MSE over each technique's).
@@ -45,10 +45,11 @@ def main() -> None:
 
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    techniques = "baseline,gaussian,hgrs,reuse,reuse_auto,mitransient"
+    techniques = "baseline,gaussian,hgrs,reuse,reuse_hgrs,reuse_auto,reuse_ld_auto,mitransient"
     runs = {  # name → (scene, spp, ground-truth spp)
         "flat_f_1corner": (str(flat_letter_xml(out)), 4096, 1 << 21),
         "t_small_five_vertex": ("t_nlos_2corner_small", 16384, 1 << 27),
+        "t_big_five_vertex": ("t_nlos_2corner_big", 4096, 1 << 24),
         "mitransient_nlos_z_simple": (str(REPO / "tests" / "data" / "mitransient" / "transient-nlos" / "nlos-z-simple.xml"),
                                       4096, 1 << 20),
     }

@@ -50,6 +50,9 @@ pub struct RenderOptions {
     /// The kernel's width is chosen per scan point ([`crate::film::auto_width`]); `kernel` gives
     /// the shape.
     pub auto_width: bool,
+    /// Draw from a low-discrepancy sequence (true) or independently (false) instead of as the
+    /// scene's sampler says.
+    pub low_discrepancy: Option<bool>,
 }
 
 impl Default for RenderOptions {
@@ -64,6 +67,7 @@ impl Default for RenderOptions {
             variance: false,
             target_rel_error: None,
             auto_width: false,
+            low_discrepancy: None,
         }
     }
 }
@@ -147,6 +151,8 @@ pub struct Plan {
     pub auto_kernel: Option<TemporalKernel>,
     /// Adaptive sampling's target relative standard error of a pixel's total.
     pub target_rel_error: Option<f64>,
+    /// Samples come from a scrambled low-discrepancy sequence (the scene's sampler).
+    pub low_discrepancy: bool,
     /// Each sample is a light subpath shared by every pixel ([`crate::integrator::sample_reuse`]):
     /// a chunk is a run of light samples over the whole film.
     pub shared: bool,
@@ -246,6 +252,7 @@ impl Plan {
             variance: opts.variance || auto_kernel.is_some(),
             auto_kernel,
             target_rel_error: opts.target_rel_error,
+            low_discrepancy: opts.low_discrepancy.unwrap_or(scene.meter.low_discrepancy),
             shared,
         })
     }
@@ -685,6 +692,16 @@ impl<'a, T: Tracer> Sampling<'a, T> {
         }
     }
 
+    /// The random stream of block `block` of `key` (a pixel, or the shared light samples):
+    /// independent, or the key's low-discrepancy sequence ([`Sampler::start`] picks the sample).
+    fn stream(&self, key: u64, block: u64) -> Sampler {
+        if self.plan.low_discrepancy {
+            Sampler::low_discrepancy(self.plan.seed, key, block)
+        } else {
+            Sampler::new(self.plan.seed, key, block)
+        }
+    }
+
     /// Add one contribution to a pixel's transient `buf` (at `base` in `values`' buffer) and
     /// steady `sum`; returns the value it added over all channels.
     #[inline]
@@ -760,8 +777,9 @@ impl<'a, T: Tracer> Sampling<'a, T> {
                 return Err(NlosError::Interrupted);
             }
             let n = BLOCK.min(end - start);
-            let mut rng = Sampler::new(self.plan.seed, pixel as u64, start / BLOCK);
-            for _ in 0..n {
+            let mut rng = self.stream(pixel as u64, start / BLOCK);
+            for k in start..start + n {
+                rng.start(k);
                 let mut total = 0.0f64;
                 self.tracer.trace(pixel, &mut rng, &mut |s: Splat| {
                     total += self.deposit(&s, buf, sum, values.as_mut(), 0);
@@ -810,16 +828,22 @@ impl<'a, T: Tracer> Sampling<'a, T> {
         while start < end {
             let n = BLOCK.min(end - start);
             // One stream per block of light samples, the same for every pixel.
-            let mut rng = Sampler::new(self.plan.seed, SHARED_STREAM, start / BLOCK);
-            let lights: Vec<_> = (0..n).map(|_| self.tracer.trace_light(&mut rng)).collect();
+            let mut rng = self.stream(SHARED_STREAM, start / BLOCK);
+            let lights: Vec<_> = (start..start + n)
+                .map(|k| {
+                    rng.start(k);
+                    self.tracer.trace_light(&mut rng)
+                })
+                .collect();
             for (j, pixel) in pixels.clone().enumerate() {
                 // Each pixel's own stream of the block, for its first vertex.
-                let mut pixel_rng = Sampler::new(self.plan.seed, pixel as u64, start / BLOCK);
+                let mut pixel_rng = self.stream(pixel as u64, start / BLOCK);
                 let (buf, sum) = (
                     &mut out.transient[j * len..(j + 1) * len],
                     &mut out.steady[j],
                 );
-                for light in &lights {
+                for (k, light) in (start..).zip(&lights) {
+                    pixel_rng.start(k);
                     self.tracer
                         .connect_light(pixel, &mut pixel_rng, light.as_ref(), &mut |s| {
                             self.deposit(&s, buf, sum, values.as_mut(), 0);

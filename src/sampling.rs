@@ -7,8 +7,12 @@ use rand_core::Rng;
 use rand_pcg::Pcg32;
 use std::f32::consts::{FRAC_1_PI, PI};
 
-/// Independent uniform sampler (PCG32, O'Neill 2014).
-pub struct Sampler(Pcg32);
+/// The uniform numbers of one sample: independent (PCG32, O'Neill 2014), or a scrambled
+/// low-discrepancy sequence ([`LowDiscrepancy`]) with PCG32 kept for draws from distributions.
+pub struct Sampler {
+    rng: Pcg32,
+    ld: Option<LowDiscrepancy>,
+}
 
 /// SplitMix64 finaliser: decorrelates the structured keys that seed the streams.
 fn mix64(mut z: u64) -> u64 {
@@ -17,32 +21,136 @@ fn mix64(mut z: u64) -> u64 {
     z ^ (z >> 31)
 }
 
+/// Owen-scrambled Sobol' points, padded in pairs of dimensions (Burley 2020, "Practical
+/// Hash-based Owen Scrambling", JCGT 9(4)). Sample `index` of a pixel takes, for its k-th draw,
+/// a point of the first two Sobol' dimensions — a (0, 2)-sequence, so every 2^m consecutive points
+/// stratify the square in all 2^a × 2^b elementary boxes with a + b = m — whose index is shuffled by
+/// a nested uniform scramble and whose coordinates are Owen-scrambled, each with its own hash of
+/// (stream key, k): every draw is uniform, every pair is stratified over a pixel's samples, and
+/// different draws are independent.
+struct LowDiscrepancy {
+    key: u32,
+    index: u32,
+    draw: u32,
+}
+
+/// Burley 2020's hash-based Laine–Karras permutation: an Owen scramble of the bits of `x` read
+/// from the least significant (a nested uniform scramble after a bit reversal).
+fn laine_karras(mut x: u32, seed: u32) -> u32 {
+    x = x.wrapping_add(seed);
+    x ^= x.wrapping_mul(0x6c50_b47c);
+    x ^= x.wrapping_mul(0xb82f_1e52);
+    x ^= x.wrapping_mul(0xc7af_e638);
+    x ^= x.wrapping_mul(0x8d22_f6e6);
+    x
+}
+
+/// A nested uniform (Owen) scramble of the 32-bit fraction `x`.
+fn owen_scramble(x: u32, seed: u32) -> u32 {
+    laine_karras(x.reverse_bits(), seed).reverse_bits()
+}
+
+/// The first two Sobol' dimensions of `index`: van der Corput, and the Pascal-matrix dimension.
+fn sobol_pair(index: u32) -> (u32, u32) {
+    let (mut y, mut v, mut i) = (0u32, 1u32 << 31, index);
+    while i != 0 {
+        if i & 1 != 0 {
+            y ^= v;
+        }
+        i >>= 1;
+        v ^= v >> 1;
+    }
+    (index.reverse_bits(), y)
+}
+
+impl LowDiscrepancy {
+    /// The next pair of the current sample, as 32-bit fractions.
+    fn pair(&mut self) -> (u32, u32) {
+        let seed = mix64(((self.key as u64) << 32) | self.draw as u64) as u32;
+        self.draw += 1;
+        let index = owen_scramble(self.index, seed);
+        let (x, y) = sobol_pair(index);
+        let h = mix64(seed as u64) as u32;
+        (owen_scramble(x, h), owen_scramble(y, h ^ 0x5bd1_e995))
+    }
+}
+
+/// The largest f32 below one.
+pub const ONE_MINUS_EPSILON: f32 = 1.0 - f32::EPSILON / 2.0;
+
+/// 32-bit fraction → [0, 1) in f32 (24 bits).
+pub fn unit(x: u32) -> f32 {
+    (x >> 8) as f32 * (1.0 / 16_777_216.0)
+}
+
 impl Sampler {
-    /// The stream for `(seed, key_a, key_b)`, e.g. (seed, pixel, sample block).
+    /// The independent stream for `(seed, key_a, key_b)`, e.g. (seed, pixel, sample block).
     pub fn new(seed: u64, key_a: u64, key_b: u64) -> Self {
         let state = mix64(seed ^ mix64(key_a.wrapping_add(0x9e37_79b9_7f4a_7c15)));
         let stream = mix64(key_b ^ mix64(seed.wrapping_add(1)));
-        Self(Pcg32::new(state, stream))
+        Self {
+            rng: Pcg32::new(state, stream),
+            ld: None,
+        }
+    }
+    /// The low-discrepancy sequence of `(seed, key)` (e.g. a pixel); [`Sampler::start`] picks
+    /// the sample. Its PCG32 stream (for [`Sampler::sample`]) is keyed by (seed, key, block).
+    pub fn low_discrepancy(seed: u64, key: u64, block: u64) -> Self {
+        let mut s = Self::new(seed, key, block);
+        s.ld = Some(LowDiscrepancy {
+            key: mix64(seed ^ mix64(key ^ 0x243f_6a88_85a3_08d3)) as u32,
+            index: 0,
+            draw: 0,
+        });
+        s
+    }
+    /// Begin sample `index` of the sequence (a pixel's sample number); an independent sampler
+    /// just goes on.
+    #[inline]
+    pub fn start(&mut self, index: u64) {
+        if let Some(ld) = self.ld.as_mut() {
+            (ld.index, ld.draw) = (index as u32, 0);
+        }
     }
     /// Uniform in [0, 1).
     #[inline]
     pub fn next_1d(&mut self) -> f32 {
-        (self.0.next_u32() >> 8) as f32 * (1.0 / 16_777_216.0)
+        match self.ld.as_mut() {
+            Some(ld) => unit(ld.pair().0),
+            None => unit(self.rng.next_u32()),
+        }
     }
     /// A uniform 32-bit integer.
     #[inline]
     pub fn next_u32(&mut self) -> u32 {
-        self.0.next_u32()
+        match self.ld.as_mut() {
+            Some(ld) => ld.pair().0,
+            None => self.rng.next_u32(),
+        }
     }
-    /// A draw from a `rand_distr` distribution on this stream.
+    /// Two uniform 32-bit integers (one stratified pair of a low-discrepancy sequence).
+    #[inline]
+    pub fn next_pair(&mut self) -> (u32, u32) {
+        match self.ld.as_mut() {
+            Some(ld) => ld.pair(),
+            None => (self.rng.next_u32(), self.rng.next_u32()),
+        }
+    }
+    /// A draw from a `rand_distr` distribution on this stream (always independent).
     #[inline]
     pub fn sample<T, D: rand_distr::Distribution<T>>(&mut self, d: &D) -> T {
-        d.sample(&mut self.0)
+        d.sample(&mut self.rng)
     }
-    /// Two uniforms in [0, 1)².
+    /// Two uniforms in [0, 1)² (one stratified pair of a low-discrepancy sequence).
     #[inline]
     pub fn next_2d(&mut self) -> Vec2 {
-        Vec2::new(self.next_1d(), self.next_1d())
+        match self.ld.as_mut() {
+            Some(ld) => {
+                let (x, y) = ld.pair();
+                Vec2::new(unit(x), unit(y))
+            }
+            None => Vec2::new(self.next_1d(), self.next_1d()),
+        }
     }
 }
 
@@ -106,8 +214,8 @@ pub fn square_to_uniform_triangle(u: Vec2) -> Vec2 {
 
 /// A discrete distribution over non-negative weights, sampled in O(1) with Walker's alias method
 /// (Vose 1991, "A linear algorithm for generating random numbers with a given distribution"):
-/// a 32-bit uniform picks one of n equal buckets, a second uniform keeps the bucket's own index
-/// with probability `keep[i]` or takes its alias.
+/// a 32-bit uniform picks one of n equal buckets and, with its remaining bits, keeps the bucket's
+/// own index with probability `keep[i]` or takes its alias.
 #[derive(Clone, Debug, Default)]
 pub struct Discrete {
     /// Per bucket: the probability of keeping its own index, and its alias (one cache line).
@@ -159,15 +267,22 @@ impl Discrete {
     pub fn pmf(&self, i: usize) -> f64 {
         self.pmf[i]
     }
-    /// An index drawn with probability [`Discrete::pmf`].
+    /// An index drawn with probability [`Discrete::pmf`] from one 32-bit uniform `x`, and a
+    /// fresh uniform in [0, 1) made of what is left of `x`: the high part of x·n picks a bucket,
+    /// the low part decides between the bucket and its alias and is rescaled past that test. A
+    /// stratified `x` thus stays stratified within each index's share.
     #[inline]
-    pub fn sample(&self, rng: &mut Sampler) -> usize {
-        let bucket = ((rng.next_u32() as u64 * self.buckets.len() as u64) >> 32) as usize;
+    pub fn sample(&self, x: u32) -> (usize, f32) {
+        let scaled = x as u64 * self.buckets.len() as u64;
+        let bucket = (scaled >> 32) as usize;
+        let r = (scaled & 0xffff_ffff) as f64 * (1.0 / 4_294_967_296.0);
         let (keep, alias) = self.buckets[bucket];
-        if rng.next_1d() < keep {
-            bucket
+        let keep = keep as f64;
+        let (i, rest) = if r < keep {
+            (bucket, r / keep)
         } else {
-            alias as usize
-        }
+            (alias as usize, (r - keep) / (1.0 - keep))
+        };
+        (i, (rest as f32).min(ONE_MINUS_EPSILON))
     }
 }

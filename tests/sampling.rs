@@ -80,9 +80,17 @@ fn discrete_alias_matches_pmf() {
     let total: f64 = w.iter().sum();
     let mut rng = Sampler::new(3, 0, 0);
     let mut obs = vec![0.0; w.len()];
+    // The uniform left over: 20 equal cells, whatever the index drawn.
+    let mut rest = vec![0.0; 20];
     for _ in 0..N {
-        obs[d.sample(&mut rng)] += 1.0;
+        let (i, r) = d.sample(rng.next_u32());
+        obs[i] += 1.0;
+        rest[(r * 20.0) as usize] += 1.0;
     }
+    assert!(
+        chi2_z(&rest, &[N as f64 / 20.0; 20]) < Z_CRIT,
+        "the remaining uniform"
+    );
     for (i, wi) in w.iter().enumerate() {
         assert!((d.pmf(i) - wi / total).abs() < 1e-12);
     }
@@ -108,4 +116,54 @@ fn streams_are_reproducible_and_distinct() {
     assert_eq!(draw(5, 6), draw(5, 6));
     assert_ne!(draw(5, 6), draw(6, 5));
     assert_ne!(draw(5, 6), draw(5, 7));
+}
+
+#[test]
+fn low_discrepancy_pairs_are_stratified_and_draws_uniform() {
+    // Every draw k of samples 0..2^m is an Owen-scrambled (0, 2)-sequence: each of the 2^a × 2^(m−a)
+    // elementary boxes holds exactly one point, for every a.
+    let m = 8;
+    for key in 0..4u64 {
+        for k in 0..5 {
+            let points: Vec<(u32, u32)> = (0..1u64 << m)
+                .map(|i| {
+                    let mut s = Sampler::low_discrepancy(7, key, 0);
+                    s.start(i);
+                    for _ in 0..k {
+                        s.next_pair();
+                    }
+                    s.next_pair()
+                })
+                .collect();
+            for a in 0..=m {
+                let mut seen = vec![false; 1 << m];
+                for &(x, y) in &points {
+                    let (x, y) = (x as u64, y as u64);
+                    let cell = ((x >> (32 - a)) << (m - a) | y >> (32 - (m - a))) as usize;
+                    assert!(
+                        !seen[cell],
+                        "key {key}, draw {k}: box {a} × {} holds two points",
+                        m - a
+                    );
+                    seen[cell] = true;
+                }
+            }
+        }
+    }
+    // Over many keys (scrambles), each draw is uniform: χ² over 64 cells of (x, y) of draw 3.
+    let mut obs = vec![0.0; 64];
+    for key in 0..N as u64 / 16 {
+        let mut s = Sampler::low_discrepancy(1, key, 0);
+        s.start(key % 16);
+        for _ in 0..3 {
+            s.next_2d();
+        }
+        let u = s.next_2d();
+        obs[(u.x * 8.0) as usize * 8 + (u.y * 8.0) as usize] += 1.0;
+    }
+    let total: f64 = obs.iter().sum();
+    assert!(
+        chi2_z(&obs, &[total / 64.0; 64]) < Z_CRIT,
+        "scrambled draws are uniform"
+    );
 }

@@ -136,6 +136,9 @@ class _Progress:
             self.bar.close()
 
 
+_SAMPLERS = ("independent", "stratified", "multijitter", "orthogonal", "ldsampler")
+
+
 def _kernel_options(kernel: Optional[str], sigma: Union[float, str, None], bandwidth: Union[float, str, None]) -> dict:
     """The core's kernel options; a width of "auto" picks the shape's width per scan point."""
     auto = [name for name, v in (("kernel_sigma", sigma), ("kernel_bandwidth", bandwidth)) if isinstance(v, str)]
@@ -169,6 +172,7 @@ def render(
     return_variance: bool = False,
     target_rel_error: Optional[float] = None,
     max_spp: Optional[int] = None,
+    sampler: Optional[str] = None,
 ) -> Tuple[np.ndarray, ...]:
     """Render an NLOS capture; returns ``(steady, transient)`` as float32 arrays.
 
@@ -196,6 +200,9 @@ def render(
     total (after at least 1024 samples), or ``max_spp`` samples (default: ``spp``, or the scene's
     ``sample_count``); deterministic for a seed. Both render each scan point in one task.
 
+    ``sampler`` overrides the scene's: ``"independent"``, or ``"stratified"``, ``"multijitter"``,
+    ``"orthogonal"``, ``"ldsampler"`` — all four draw from one Owen-scrambled Sobol' sequence.
+
     The output's size is checked before it is allocated: beyond ``max_memory`` (bytes, or a string
     such as ``"512MiB"``; default 80 % of the memory available) the render raises ``SceneError``.
     """
@@ -206,6 +213,8 @@ def render(
         if not isinstance(v, (int, np.integer)) or isinstance(v, bool) or not lo <= v < 2**64:
             raise SceneError(f"plugin 'render': key '{name}': must be an integer in [{lo}, 2^64), got {v!r}")
 
+    if sampler is not None and sampler not in _SAMPLERS:
+        raise SceneError(f"plugin 'render': key 'sampler': must be one of {_SAMPLERS}, got {sampler!r}")
     if max_spp is not None:
         if target_rel_error is None:
             raise SceneError("plugin 'render': key 'max_spp': is the budget of target_rel_error; set that too (or use spp)")
@@ -222,6 +231,7 @@ def render(
     try:
         options = {"spp": spp, "seed": int(seed), "threads": threads, "mono": _VARIANTS[key], "max_memory": limit,
                    "return_variance": bool(return_variance), "target_rel_error": target_rel_error,
+                   "low_discrepancy": None if sampler is None else sampler != "independent",
                    **_kernel_options(kernel, kernel_sigma, kernel_bandwidth)}
         steady, transient, variance = _core.render(scene, options, bar)
         return (steady, transient, variance) if return_variance else (steady, transient)

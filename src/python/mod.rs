@@ -593,6 +593,8 @@ pub(crate) struct Opts {
     target_rel_error: Option<f64>,
     #[pyo3(default)]
     auto_width: bool,
+    #[pyo3(default)]
+    low_discrepancy: Option<bool>,
 }
 
 impl Opts {
@@ -617,6 +619,7 @@ impl Opts {
             variance: self.return_variance,
             target_rel_error: self.target_rel_error,
             auto_width: self.auto_width,
+            low_discrepancy: self.low_discrepancy,
         })
     }
 }

@@ -4,8 +4,8 @@
 
 use super::Scene;
 use crate::geometry::{Interaction, Prim};
-use crate::sampling::{Discrete, Sampler, square_to_uniform_triangle};
-use glam::Vec3A;
+use crate::sampling::{Discrete, Sampler, square_to_uniform_triangle, unit};
+use glam::{Vec2, Vec3A};
 
 /// One primitive as a draw needs it, in one 64-byte cache line, so that a draw from a large mesh
 /// touches two lines (the alias-table bucket and this entry) instead of five arrays of the scene.
@@ -74,11 +74,15 @@ impl AreaSampler {
         self.dist.total() as f32
     }
 
-    /// A uniformly distributed point on the hidden geometry (density 1/A_total in area).
+    /// A uniformly distributed point on the hidden geometry (density 1/A_total in area), from
+    /// one pair of uniforms: the first picks the triangle and, with what is left of it, the first
+    /// coordinate inside it (a stratified pair stays stratified over the whole area).
     #[inline]
     pub fn sample(&self, scene: &Scene, rng: &mut Sampler) -> Interaction {
-        let e = &self.entries[self.dist.sample(rng)];
-        let u = rng.next_2d();
+        let (x, y) = rng.next_pair();
+        let (i, rest) = self.dist.sample(x);
+        let e = &self.entries[i];
+        let u = Vec2::new(rest, unit(y));
         if e.n[3] == 0.0 {
             let i = e.v0[3].to_bits() as usize;
             let (p, ng, b) = scene.prims[i].sample_area(u);
