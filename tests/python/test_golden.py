@@ -27,14 +27,15 @@ def _z(**kw):
 
 CASES = {
     "single": lambda: (_z(), {}),
-    # One path per scan point (nlos_sample_reuse=False): the estimator of every render before sample
-    # reuse, whose digests these four keep.
+    # One path per scan point (nlos_sample_reuse=False), mitransient's estimator: single captures
+    # share light subpaths by default.
     "single_per_point": lambda: (_z(nlos_sample_reuse=False), {}),
     "kde_gaussian_per_point": lambda: (_z(nlos_sample_reuse=False), {"kernel_sigma": 1.5}),
     "rgb_per_point": lambda: (_z(nlos_sample_reuse=False), {"variant": "rgb"}),
     "hgrs_resampled_per_point": lambda: (_z(nlos_sample_reuse=False), {"integrator": "transient_nlos_path_rs"}),
     "two_corners_per_point": lambda: (scenes.t_nlos_2corner("small", width=4, height=4, spp=128, temporal_bins=200,
                                                             bin_width_opl=0.04, nlos_sample_reuse=False), {}),
+    "single_sobol": lambda: (_z(), {"sampler": "stratified"}),
     "confocal": lambda: (_z(capture_type="confocal"), {}),
     "exhaustive": lambda: (scenes.z_nlos_1corner(width=3, height=3, spp=64, temporal_bins=80, bin_width_opl=0.03,
                                                  capture_type="exhaustive"), {}),
