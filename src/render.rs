@@ -829,12 +829,15 @@ impl<'a, T: Tracer> Sampling<'a, T> {
             let n = BLOCK.min(end - start);
             // One stream per block of light samples, the same for every pixel.
             let mut rng = self.stream(SHARED_STREAM, start / BLOCK);
-            let lights: Vec<_> = (start..start + n)
-                .map(|k| {
-                    rng.start(k);
-                    self.tracer.trace_light(&mut rng)
-                })
-                .collect();
+            let mut lights = Vec::with_capacity(n as usize);
+            for k in start..start + n {
+                rng.start(k);
+                lights.push(self.tracer.trace_light(&mut rng));
+                // A light subpath can be expensive (HGRS candidates): stay responsive.
+                if cancel.load(Ordering::Relaxed) {
+                    return Err(NlosError::Interrupted);
+                }
+            }
             for (j, pixel) in pixels.clone().enumerate() {
                 // Each pixel's own stream of the block, for its first vertex.
                 let mut pixel_rng = self.stream(pixel as u64, start / BLOCK);

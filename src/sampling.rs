@@ -84,10 +84,13 @@ pub fn unit(x: u32) -> f32 {
 }
 
 impl Sampler {
-    /// The independent stream for `(seed, key_a, key_b)`, e.g. (seed, pixel, sample block).
+    /// The independent stream for `(seed, key_a, key_b)`, e.g. (seed, pixel, sample block). Both
+    /// keys enter the LCG's increment as well as its state: PCG generators that share an increment
+    /// walk the same cycle, and the streams of a shared render's light samples and of its pixels
+    /// in one block were measurably correlated that way.
     pub fn new(seed: u64, key_a: u64, key_b: u64) -> Self {
         let state = mix64(seed ^ mix64(key_a.wrapping_add(0x9e37_79b9_7f4a_7c15)));
-        let stream = mix64(key_b ^ mix64(seed.wrapping_add(1)));
+        let stream = mix64(key_b ^ mix64(seed.wrapping_add(1) ^ mix64(key_a)));
         Self {
             rng: Pcg32::new(state, stream),
             ld: None,

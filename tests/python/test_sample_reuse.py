@@ -66,7 +66,11 @@ def test_reuse_agrees_with_one_path_per_scan_point(case):
         runs[reuse] = np.array([nlos_rs.render(d, spp=spp, seed=first_seed + k, variant=variant, progress=False)[1].sum(-1)
                                 for k in range(REPS)])
     assert runs[True].sum() > 0 and runs[True].shape == runs[False].shape
-    res = agreement(features(runs[True]), features(runs[False]))
+    a, b = features(runs[True]), features(runs[False])
+    # Quantities below 1e-9 of the largest are not compared: with a camera the two estimators'
+    # late tails (~1e-14 of the signal, grazing paths along the relay plane) differ at float level.
+    keep = np.maximum(a.mean(0), b.mean(0)) > 1e-9 * b.mean(0).max()
+    res = agreement(a[:, keep], b[:, keep])
     print(f"\n{case}: {res}")
     assert res["agree"], res
 

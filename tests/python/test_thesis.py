@@ -171,7 +171,10 @@ def test_the_t_is_seen_only_through_two_corners(secondary):
     def render(fb, t_reflectance):
         # Few paths reach the T (about 1 in 200,000 on the small scene, ~20 here): at 4096 spp
         # none may, which made this test depend on the random stream.
-        d = nlos_rs.scenes.t_nlos_2corner(secondary, width=8, height=8, spp=65536, filter_bounces=fb)
+        # One path per scan point: 64 x 65536 independent paths (shared light subpaths would be
+        # 65536, and the rare T paths then show in every pixel or in none).
+        d = nlos_rs.scenes.t_nlos_2corner(secondary, width=8, height=8, spp=65536, filter_bounces=fb,
+                                          nlos_sample_reuse=False)
         d["t"]["bsdf"]["reflectance"]["value"] = [t_reflectance] * 3
         return nlos_rs.render(d, progress=False)[1]
 
