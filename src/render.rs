@@ -403,11 +403,7 @@ fn render_by(
                 let mut steady = vec![0.0f32; plan.pixels * c];
                 let mut variance = vec![0.0f32; if plan.variance { plan.pixels * len } else { 0 }];
                 let mut samples = vec![plan.spp; plan.pixels];
-                let mut sqs: Vec<Option<&mut [f32]>> = if plan.variance {
-                    variance.chunks_mut(len).map(Some).collect()
-                } else {
-                    (0..plan.pixels).map(|_| None).collect()
-                };
+                let mut sqs = per_task(&mut variance, len, plan.pixels);
                 transient
                     .par_chunks_mut(len)
                     .zip(steady.par_chunks_mut(c))
@@ -437,6 +433,15 @@ fn render_by(
             }
         })
     })
+}
+
+/// `tasks` slices of `len` of `buf`, or `tasks` times `None` when `buf` is empty (no variance).
+fn per_task(buf: &mut [f32], len: usize, tasks: usize) -> Vec<Option<&mut [f32]>> {
+    if buf.is_empty() {
+        (0..tasks).map(|_| None).collect()
+    } else {
+        buf.chunks_mut(len).map(Some).collect()
+    }
 }
 
 /// Turn a pixel's per-bin sums of squared per-sample values `sq` into the variance of the mean,
@@ -663,7 +668,8 @@ impl SampleValues {
         *x += v;
     }
 
-    /// The sample is complete: its squared values into `squares`.
+    /// The sample is complete: its squared values into `squares` (an index listed twice adds
+    /// nothing the second time: its value is already cleared).
     fn finish(&mut self, squares: &mut [f32]) {
         for &i in &self.touched {
             squares[i] += self.cur[i] * self.cur[i];
@@ -731,11 +737,13 @@ impl<'a, T: Tracer> Sampling<'a, T> {
             (Some(ph), values) => {
                 ph.put(s.opl - film.start_opl, s.value[0], slot);
                 if let Some(values) = values {
-                    let mut one = vec![0.0f32; slot_len];
-                    ph.put(s.opl - film.start_opl, s.value[0], &mut one);
-                    one.iter()
-                        .enumerate()
-                        .for_each(|(i, &v)| values.add(base + at + i, v));
+                    let range = base + at..base + at + slot_len;
+                    ph.put(
+                        s.opl - film.start_opl,
+                        s.value[0],
+                        &mut values.cur[range.clone()],
+                    );
+                    values.touched.extend(range);
                 }
             }
             (None, None) => self.splatter.splat(s.opl, |bin, w| {
@@ -927,11 +935,8 @@ impl<'a, T: Tracer> Sampling<'a, T> {
         let (len, k) = (self.plan.pixel_len, chunks.end - chunks.start);
         let mut part = self.empty_part(pixels, chunks);
         let (first_pixel, first_chunk) = (part.pixels.start, part.chunks.start);
-        let mut squares: Vec<Option<&mut [f32]>> = if self.plan.variance {
-            part.squares.chunks_mut(len.max(1)).map(Some).collect()
-        } else {
-            (0..part.steady.len() / 3).map(|_| None).collect()
-        };
+        let tasks = part.steady.len() / 3;
+        let mut squares = per_task(&mut part.squares, len.max(1), tasks);
         part.transient
             .par_chunks_mut(len.max(1))
             .zip(part.steady.par_chunks_mut(3))
