@@ -1,5 +1,6 @@
 """Equal-time error against mitransient (not a test): ``python -m nlos_rs.evaluate`` on scenes the
-project did not tune for — a one-sided flat letter behind one corner (albedo 0.7, unbounded depth),
+project did not tune for — a one-sided flat letter behind one corner (albedo 0.7, unbounded depth;
+a single capture, and an exhaustive one of 8×8 scan points × 8×8 laser points),
 the T behind two corners (small and big secondary wall, five-vertex signal) and mitransient's own
 ``nlos-z-simple.xml`` (a perspective camera as the sensor) — each technique given mitransient's
 render time. Prints each scene's equal-time table (MSE against a high-spp ground truth whose own
@@ -18,19 +19,20 @@ HERE = Path(__file__).resolve().parent
 REPO = HERE.parent
 
 
-def flat_letter_xml(out: Path) -> Path:
-    """The suite's one-sided flat 'F' 1 m behind the relay wall, 32×32×300, as a Mitsuba XML file."""
+def flat_letter_xml(out: Path, capture_type: str = "single", size: int = 32) -> Path:
+    """The suite's one-sided flat 'F' 1 m behind the relay wall, size×size×300 (and as many laser
+    points for an exhaustive capture), as a Mitsuba XML file."""
     import nlos_rs
     from nlos_rs.xml import save_xml
 
     sys.path.insert(0, str(HERE))
     from suite import flat_letter_mesh
 
-    d = nlos_rs.scenes.z_nlos_1corner(width=32, height=32, spp=4096)
+    d = nlos_rs.scenes.z_nlos_1corner(width=size, height=size, spp=4096, capture_type=capture_type)
     d["z"] = {"type": "obj", "filename": flat_letter_mesh(out / "flat_f.obj"),
               "to_world": nlos_rs.Transform4f().translate([0.0, 0.0, 1.0]),
               "bsdf": {"type": "diffuse", "reflectance": 0.7}}
-    path = out / "flat_f_1corner.xml"
+    path = out / ("flat_f_1corner.xml" if capture_type == "single" else f"flat_f_1corner_{capture_type}.xml")
     save_xml(d, path)
     return path
 
@@ -48,6 +50,7 @@ def main() -> None:
     techniques = "baseline,gaussian,hgrs,reuse,reuse_hgrs,reuse_auto,reuse_ld_auto,mitransient"
     runs = {  # name → (scene, spp, ground-truth spp)
         "flat_f_1corner": (str(flat_letter_xml(out)), 4096, 1 << 21),
+        "flat_f_1corner_exhaustive": (str(flat_letter_xml(out, "exhaustive", 8)), 4096, 1 << 20),
         "t_small_five_vertex": ("t_nlos_2corner_small", 16384, 1 << 27),
         "t_big_five_vertex": ("t_nlos_2corner_big", 4096, 1 << 24),
         "mitransient_nlos_z_simple": (str(REPO / "tests" / "data" / "mitransient" / "transient-nlos" / "nlos-z-simple.xml"),

@@ -812,10 +812,11 @@ impl<'a, T: Tracer> Sampling<'a, T> {
         Ok(start - first)
     }
 
-    /// Light samples [first, end) of a shared render, connected to the pixels `pixels`. A block
-    /// of light subpaths is traced first, then connected pixel by pixel (each pixel's buffer stays
-    /// in cache); a pixel adds its contributions in light-sample order, so its sums do not depend
-    /// on which other pixels share the run.
+    /// Light samples [first, end) of a shared render, connected to the pixels `pixels`. Block by
+    /// block, the light subpaths are traced once (in sample order from the block's stream, then
+    /// their deterministic rest in parallel), then connected to the pixels in parallel, each pixel
+    /// to every subpath in sample order (its buffer stays in cache), so no pixel's sums depend on
+    /// the threads.
     fn trace_shared(&self, pixels: Range<usize>, first: u64, end: u64) -> Result<RunSums> {
         let len = self.plan.pixel_len;
         let mut out = RunSums {
@@ -830,7 +831,6 @@ impl<'a, T: Tracer> Sampling<'a, T> {
                 }
             ],
         };
-        let mut values = self.plan.variance.then(|| SampleValues::new(len));
         let cancel = &self.monitor.cancel;
         let mut start = first;
         while start < end {
@@ -846,27 +846,52 @@ impl<'a, T: Tracer> Sampling<'a, T> {
                     return Err(NlosError::Interrupted);
                 }
             }
-            for (j, pixel) in pixels.clone().enumerate() {
-                // Each pixel's own stream of the block, for its first vertex.
-                let mut pixel_rng = self.stream(pixel as u64, start / BLOCK);
-                let (buf, sum) = (
-                    &mut out.transient[j * len..(j + 1) * len],
-                    &mut out.steady[j],
-                );
-                for (k, light) in (start..).zip(&lights) {
-                    pixel_rng.start(k);
-                    self.tracer
-                        .connect_light(pixel, &mut pixel_rng, light.as_ref(), &mut |s| {
-                            self.deposit(&s, buf, sum, values.as_mut(), 0);
-                        });
-                    if let Some(v) = values.as_mut() {
-                        v.finish(&mut out.squares[j * len..(j + 1) * len]);
-                    }
-                }
-                if cancel.load(Ordering::Relaxed) {
-                    return Err(NlosError::Interrupted);
-                }
-            }
+            lights
+                .par_iter_mut()
+                .flatten()
+                .for_each(|light| self.tracer.link_light(light));
+            let mut squares = per_task(&mut out.squares, len, pixels.len());
+            out.transient
+                .par_chunks_mut(len.max(1))
+                .zip(out.steady.par_iter_mut())
+                .zip(squares.par_iter_mut())
+                .zip(pixels.clone().into_par_iter())
+                .try_for_each_init(
+                    || {
+                        (
+                            self.plan.variance.then(|| SampleValues::new(len)),
+                            Vec::new(),
+                        )
+                    },
+                    |(values, fixed), (((buf, sum), sq), pixel)| {
+                        // Each pixel's own stream of the block, for its first vertex.
+                        let mut pixel_rng = self.stream(pixel as u64, start / BLOCK);
+                        fixed.clear();
+                        self.tracer
+                            .fixed_contributions(pixel, &mut |s| fixed.push(s));
+                        for (k, light) in (start..).zip(&lights) {
+                            pixel_rng.start(k);
+                            for s in fixed.iter() {
+                                self.deposit(s, buf, sum, values.as_mut(), 0);
+                            }
+                            self.tracer.connect_light(
+                                pixel,
+                                &mut pixel_rng,
+                                light.as_ref(),
+                                &mut |s| {
+                                    self.deposit(&s, buf, sum, values.as_mut(), 0);
+                                },
+                            );
+                            if let (Some(v), Some(sq)) = (values.as_mut(), sq.as_deref_mut()) {
+                                v.finish(sq);
+                            }
+                        }
+                        if cancel.load(Ordering::Relaxed) {
+                            return Err(NlosError::Interrupted);
+                        }
+                        Ok(())
+                    },
+                )?;
             self.monitor
                 .done
                 .fetch_add(n * pixels.len() as u64, Ordering::Relaxed);
@@ -888,34 +913,23 @@ impl<'a, T: Tracer> Sampling<'a, T> {
         }
     }
 
-    /// A shared render's part: each chunk of light samples over runs of the pixels, in parallel
-    /// (enough runs to keep every thread busy; a light subpath is retraced once per run).
+    /// A shared render's part: its chunks of light samples in parallel, each over all its pixels.
     fn part_shared(&self, pixels: Range<usize>, chunks: Range<u64>) -> Result<Part> {
         let (len, k) = (self.plan.pixel_len, (chunks.end - chunks.start) as usize);
-        let runs = (4 * rayon::current_num_threads())
-            .div_ceil(k)
-            .min(pixels.len())
-            .max(1);
-        let cuts: Vec<usize> = (0..=runs)
-            .map(|i| pixels.start + i * pixels.len() / runs)
-            .collect();
-        let tasks: Vec<(Range<usize>, u64)> = cuts
-            .windows(2)
-            .flat_map(|w| chunks.clone().map(move |chunk| (w[0]..w[1], chunk)))
-            .collect();
-        let done: Vec<(Range<usize>, u64, RunSums)> = tasks
+        let done: Vec<(u64, RunSums)> = chunks
+            .clone()
             .into_par_iter()
-            .map(|(run, chunk)| {
+            .map(|chunk| {
                 let (first, end) = self.plan.chunk_samples(chunk);
-                Ok((run.clone(), chunk, self.trace_shared(run, first, end)?))
+                Ok((chunk, self.trace_shared(pixels.clone(), first, end)?))
             })
             .collect::<Result<_>>()?;
         // Into the part's layout: per pixel, per chunk.
         let mut part = self.empty_part(pixels, chunks);
-        for (run, chunk, sums) in done {
+        for (chunk, sums) in done {
             let kc = (chunk - part.chunks.start) as usize;
-            for (i, p) in run.enumerate() {
-                let at = (p - part.pixels.start) * k + kc;
+            for i in 0..part.pixels.len() {
+                let at = i * k + kc;
                 let (to, from) = (at * len..(at + 1) * len, i * len..(i + 1) * len);
                 part.transient[to.clone()].copy_from_slice(&sums.transient[from.clone()]);
                 if self.plan.variance {

@@ -8,13 +8,21 @@
 //! into a slab that every shadow ray towards the wall enters.
 
 use super::{Hit, Prim};
-use glam::Vec3A;
+use glam::{UVec2, Vec3A};
 use obvhs::{
     Boundable, BvhBuildParams,
     aabb::Aabb,
-    cwbvh::{CwBvh, builder::build_cwbvh},
-    ray::{Ray, RayHit},
+    cwbvh::{CwBvh, Traversal, builder::build_cwbvh},
+    ray::Ray,
 };
+use std::cell::RefCell;
+
+thread_local! {
+    /// Each thread's traversal state, reused from ray to ray: obvhs' own entry points build a
+    /// fresh one per ray, zeroing its 256-byte stack (a `memset` that took a tenth of a render's
+    /// time); [`Traversal::reinit`] only resets the stack's top.
+    static TRAVERSAL: RefCell<Traversal> = RefCell::new(Traversal::default());
+}
 
 impl Boundable for Prim {
     fn aabb(&self) -> Aabb {
@@ -80,25 +88,34 @@ impl Accel {
                 ..hit
             });
         }
-        let ray = Self::ray(o, d, tmin, tmax);
-        let mut hit = RayHit::none();
-        let mut bary = [0.0f32; 2];
-        let found = self.bvh.ray_traverse(ray, &mut hit, |r, slot| {
-            match self.prims[slot].intersect(r.origin, r.direction, r.tmin, r.tmax) {
-                Some((t, b)) => {
-                    bary = b;
-                    t
+        let mut ray = Self::ray(o, d, tmin, tmax);
+        let mut best: Option<Hit> = None;
+        TRAVERSAL.with_borrow_mut(|state| {
+            state.reinit(ray.direction);
+            let mut node;
+            obvhs::traverse!(
+                self.bvh,
+                node,
+                state,
+                node.intersect_ray(&ray, state.oct_inv4),
+                {
+                    let slot = state.primitive_id as usize;
+                    // Closest hit: a candidate is accepted only if it shortens the ray.
+                    if let Some((t, b)) =
+                        self.prims[slot].intersect(ray.origin, ray.direction, ray.tmin, ray.tmax)
+                        && t < ray.tmax
+                    {
+                        ray.tmax = t;
+                        best = Some(Hit {
+                            t,
+                            prim: self.slot_to_prim[slot],
+                            b,
+                        });
+                    }
                 }
-                None => f32::INFINITY,
-            }
+            );
         });
-        // `bary` belongs to the last accepted candidate, which is the closest: candidates are
-        // only accepted when they shorten the ray.
-        found.then(|| Hit {
-            t: hit.t,
-            prim: self.slot_to_prim[hit.primitive_id as usize],
-            b: bary,
-        })
+        best
     }
 
     /// True if nothing lies on the open segment `o + t d`, `t ∈ (tmin, tmax)`.
@@ -113,10 +130,30 @@ impl Accel {
                 .all(|p| p.intersect(o, d, tmin, tmax).is_none());
         }
         let ray = Self::ray(o, d, tmin, tmax);
-        self.bvh.ray_traverse_miss(ray, |r, slot| {
-            self.prims[slot]
-                .intersect(r.origin, r.direction, r.tmin, r.tmax)
-                .map_or(f32::INFINITY, |h| h.0)
+        TRAVERSAL.with_borrow_mut(|state| {
+            state.reinit(ray.direction);
+            let mut node;
+            let mut miss = true;
+            // Any hit ends the traversal (out of the macro's loops).
+            'any: {
+                obvhs::traverse!(
+                    self.bvh,
+                    node,
+                    state,
+                    node.intersect_ray(&ray, state.oct_inv4),
+                    {
+                        let slot = state.primitive_id as usize;
+                        if self.prims[slot]
+                            .intersect(ray.origin, ray.direction, ray.tmin, ray.tmax)
+                            .is_some_and(|h| h.0 < ray.tmax)
+                        {
+                            miss = false;
+                            break 'any;
+                        }
+                    }
+                );
+            }
+            miss
         })
     }
 }

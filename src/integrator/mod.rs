@@ -81,13 +81,22 @@ pub trait Tracer: Sync {
 
     /// A light subpath shared by all pixels ([`sample_reuse`]); `()` for a tracer that never
     /// shares (`transient_path`).
-    type Light;
+    type Light: Send + Sync;
 
     /// Trace one light subpath (only called where [`shares_samples`] holds); `None` if it
     /// reaches nothing to connect.
     fn trace_light(&self, _rng: &mut Sampler) -> Option<Self::Light> {
         None
     }
+
+    /// Complete a traced light subpath with what takes no randomness (an exhaustive capture's
+    /// links to every laser point); called in parallel over a block's subpaths.
+    fn link_light(&self, _light: &mut Self::Light) {}
+
+    /// The contributions every light sample adds to `pixel` unchanged, passed to `out` once: the
+    /// paths that use no light subpath when the pixel's first vertex takes no randomness.
+    /// [`Self::connect_light`] leaves out what this passes.
+    fn fixed_contributions(&self, _pixel: usize, _out: &mut impl FnMut(Splat)) {}
 
     /// Pass the contributions of one light sample (`light`, possibly empty) to pixel `pixel`,
     /// whose own stream `pixel_rng` draws its first vertex.

@@ -65,9 +65,9 @@ pub struct NlosTracer<'a> {
     /// Scan points and laser spots.
     pub(super) capture: Capture,
     /// A perspective camera as the sensor, instead of the scan points.
-    camera: Option<&'a Camera>,
+    pub(super) camera: Option<&'a Camera>,
     /// Set by the caller to stop the render.
-    cancel: &'a AtomicBool,
+    pub(super) cancel: &'a AtomicBool,
     /// Hidden-geometry distribution, if that sampling is on.
     pub(super) hidden: Option<AreaSampler>,
 }
@@ -139,7 +139,8 @@ impl<'a> NlosTracer<'a> {
         let r = r2.sqrt();
         let w = u / r;
         let cos_z = spot.it.ns.dot(-w);
-        if cos_z <= 0.0 {
+        // Not above the spot, or at the spot itself (a confocal scan point: r = 0, w undefined).
+        if !(cos_z > 0.0) {
             return;
         }
         let Some(f) = self.bsdf(x).eval(x.ns, wi, w) else {
@@ -270,7 +271,7 @@ impl<'a> NlosTracer<'a> {
 
     /// Emitter sampling at a vertex: laser sampling to the capture's spot(s), or NEE to the laser.
     #[inline]
-    fn emitter_sampling(&self, pixel: usize, v: &Vertex, out: &mut impl FnMut(Splat)) {
+    pub(super) fn emitter_sampling(&self, pixel: usize, v: &Vertex, out: &mut impl FnMut(Splat)) {
         if !self.settings.laser_sampling {
             return self.nee_laser(v, out);
         }
@@ -298,6 +299,14 @@ impl Tracer for NlosTracer<'_> {
 
     fn trace_light(&self, rng: &mut Sampler) -> Option<Self::Light> {
         NlosTracer::trace_light(self, rng)
+    }
+
+    fn link_light(&self, light: &mut Self::Light) {
+        NlosTracer::link_light(self, light)
+    }
+
+    fn fixed_contributions(&self, pixel: usize, out: &mut impl FnMut(Splat)) {
+        NlosTracer::fixed_contributions(self, pixel, out)
     }
 
     fn connect_light(

@@ -1,37 +1,47 @@
-//! Sample reuse across scan points (single captures): instead of one path per scan point, a light
-//! subpath is traced from the laser spot through the hidden geometry and each of its vertices is
-//! connected to every scan point by one shadow ray. Every vertex is drawn uniformly over the hidden
-//! geometry's area, as hidden-geometry sampling draws them from the scan point's side, so each scan
-//! point receives the same path measurement contribution over the same density as with
-//! [`super::NlosTracer::trace`]: the estimate is unbiased and its variance per sample is that of
-//! one path, while a contribution costs one shadow ray instead of a path. The price is correlation:
-//! all scan points of a render see the same hidden points, so their noise is correlated (an image
-//! of N samples shows N hidden points' "speckle" in every pixel, not independent noise per pixel).
+//! Sample reuse across scan points: instead of one path per scan point, a light subpath is traced
+//! through the hidden geometry and each of its vertices is connected to every scan point by one
+//! shadow ray. Every vertex is drawn uniformly over the hidden geometry's area, as hidden-geometry
+//! sampling draws them from the scan point's side, so each scan point receives the same path
+//! measurement contribution over the same density as with [`super::NlosTracer::trace`]: the
+//! estimate is unbiased and its variance per sample is that of one path, while a contribution costs
+//! one shadow ray instead of a path. The price is correlation: all scan points of a render see the
+//! same hidden points, so their noise is correlated (an image of N samples shows N hidden points'
+//! "speckle" in every pixel, not independent noise per pixel).
+//!
+//! * A single capture's subpath starts at its one laser spot (the spot lights the first vertex).
+//! * Confocal and exhaustive captures have many spots, so the subpath starts at its first hidden
+//!   vertex, lit by no spot in particular; each spot is linked to that vertex by one shadow ray
+//!   ([`SpotLink`]): once per subpath for an exhaustive capture's laser grid (every scan point
+//!   shares the links, so a subpath serves every (scan point, laser point) pair), once per scan
+//!   point for a confocal one (its own spot).
 //!
 //! This is the connection idea of light tracing and bidirectional path tracing (Veach 1997, ch. 10)
-//! applied to the scan grid, which shares the light subpath because every scan point of a single
-//! capture sees the same laser spot. docs/techniques.md states when it applies and what it gains.
+//! applied to the scan grid. docs/techniques.md states when it applies and what it gains.
 
 use super::nlos::HiddenEdge;
 use super::{NlosTracer, Splat, Step, Vertex, hgrs, russian_roulette};
 use crate::bsdf::Bsdf;
+use crate::capture::Spot;
+use crate::geometry::Interaction;
 use crate::math::Spectrum;
 use crate::sampling::Sampler;
 use crate::scene::{Scene, Setup};
 use crate::settings::CaptureType;
 use glam::Vec3A;
+use std::sync::atomic::Ordering;
 
 /// Whether a render of `scene` shares light subpaths among scan points: `nlos_sample_reuse` is on,
-/// the capture is single with laser sampling and hidden-geometry sampling (plain or HGRS) at every
-/// vertex (no technique mixture, no depth limit on it), and no BSDF has a delta component (those paths are reached by BSDF sampling from the scan point's side,
-/// which a light subpath cannot mirror).
+/// the capture uses laser sampling and hidden-geometry sampling at every vertex (no technique
+/// mixture, no depth limit on it; HGRS only for a single capture, whose first vertex's candidates
+/// are judged from its one spot), and no BSDF has a delta component (those paths are reached by
+/// BSDF sampling from the scan point's side, which a light subpath cannot mirror).
 pub fn shares_samples(scene: &Scene) -> bool {
     let Setup::Nlos(n) = &scene.setup else {
         return false;
     };
     let s = &n.settings;
     s.sample_reuse
-        && s.capture_type == CaptureType::Single
+        && (s.capture_type == CaptureType::Single || s.hgrs.is_none())
         && s.laser_sampling
         && s.hidden_geometry_sampling
         && !s.hgs_rroulette
@@ -40,32 +50,61 @@ pub fn shares_samples(scene: &Scene) -> bool {
 }
 
 /// A vertex of a light subpath: the hidden point, the direction towards the previous vertex (the
-/// laser side), the throughput up to it without its own BSDF (the spot's radiance included), and
-/// the optical path from it back to the laser.
+/// laser side; `None` for the first vertex of a subpath that no single spot lights), the throughput
+/// up to it without its own BSDF (a single capture's spot radiance included), and the optical path
+/// from it back to the laser (to the first vertex where no single spot lights it).
 struct LightVertex {
-    it: crate::geometry::Interaction,
-    to_light: Vec3A,
+    it: Interaction,
+    to_light: Option<Vec3A>,
     weight: Spectrum,
     opl: f64,
 }
 
 /// One light subpath: its vertices that connect to scan points (those whose path depth passes
-/// `max_depth` and `filter_bounces`).
+/// `max_depth` and `filter_bounces`), and for confocal and exhaustive captures its first vertex
+/// with what the spots need of it.
 pub struct LightPath {
     vertices: Vec<LightVertex>,
+    spot_free: Option<SpotFree>,
+}
+
+/// The start of a subpath that no single spot lights: its first hidden vertex, the direction on
+/// to the second (if any), and for an exhaustive capture the link of every laser spot that lights
+/// it, with its film slot.
+struct SpotFree {
+    first: Interaction,
+    out: Option<Vec3A>,
+    links: Vec<(usize, SpotLink)>,
+}
+
+/// A laser spot lighting the first vertex y₁ of a subpath: the direction y₁ → spot, the radiance
+/// the spot sends to y₁ times its geometry term, that times y₁'s BSDF towards the second vertex,
+/// and the optical path y₁ → spot → laser.
+#[derive(Clone, Copy)]
+struct SpotLink {
+    to_spot: Vec3A,
+    source: Spectrum,
+    beyond: Spectrum,
+    opl: f64,
+}
+
+/// Where the spot of a connection is: in the light vertex's weight (a single capture), or linked
+/// to the subpath's first vertex by each of the (slot, link) pairs; `true` when the first vertex
+/// is already known to be visible from the scan point (a confocal spot at the scan point).
+#[derive(Clone, Copy)]
+enum Spots<'a> {
+    InWeight,
+    Linked(&'a [(usize, SpotLink)], bool),
 }
 
 impl NlosTracer<'_> {
-    /// Trace one light subpath from the laser spot through the hidden geometry. With
+    /// Trace one light subpath through the hidden geometry: from the laser spot for a single
+    /// capture, from a first hidden vertex for confocal and exhaustive ones. With
     /// `transient_nlos_path_rs` every vertex is an HGRS step (`super::hgrs`): its N candidates and
     /// their shadow rays are paid once for all scan points.
     pub(super) fn trace_light(&self, rng: &mut Sampler) -> Option<LightPath> {
         let st = self.settings;
-        let spot = &self.capture.spots[0];
         let hg = self.hidden.as_ref()?;
-        if spot.radiance == Some(Spectrum::ZERO) || spot.incident == Spectrum::ZERO {
-            return None;
-        }
         let area = hg.total_area();
         let step =
             |rng: &mut Sampler, candidate: &mut dyn FnMut(&mut Sampler) -> Option<Step>| match st
@@ -74,33 +113,56 @@ impl NlosTracer<'_> {
                 Some(h) => hgrs::sample(h, rng, candidate),
                 None => candidate(rng),
             };
-        // ---- The first hidden vertex, lit by the spot (connect_spot's terms, from the other
-        // end), its area density 1/A included: the subpath's source.
-        let first = step(rng, &mut |rng| {
-            let y = hg.sample(self.scene, rng);
-            let u = spot.it.p - y.p;
-            let r2 = u.length_squared();
-            let r = r2.sqrt();
-            let w = u / r;
-            let cos_z = spot.it.ns.dot(-w);
-            if cos_z <= 0.0 || !self.scene.visible(&y, spot.it.p) {
+        let single = st.capture_type == CaptureType::Single;
+        // ---- The first hidden vertex, its area density 1/A included: the subpath's source. A
+        // single capture's spot lights it (connect_spot's terms, from the other end).
+        let (first, to_light, opl) = if single {
+            let spot = &self.capture.spots[0];
+            if spot.radiance == Some(Spectrum::ZERO) || spot.incident == Spectrum::ZERO {
                 return None;
             }
-            Some(Step {
+            let first = step(rng, &mut |rng| {
+                let y = hg.sample(self.scene, rng);
+                let u = spot.it.p - y.p;
+                let r2 = u.length_squared();
+                let r = r2.sqrt();
+                let w = u / r;
+                let cos_z = spot.it.ns.dot(-w);
+                if cos_z <= 0.0 || !self.scene.visible(&y, spot.it.p) {
+                    return None;
+                }
+                Some(Step {
+                    next: y,
+                    dist: r,
+                    weight: self.spot_radiance(spot, w)? * (area * cos_z / r2),
+                    eta: 1.0,
+                })
+            })?;
+            let to_light = (spot.it.p - first.next.p).normalize();
+            let opl = first.dist as f64 + spot.last_leg;
+            (first, Some(to_light), opl)
+        } else {
+            let y = hg.sample(self.scene, rng);
+            let first = Step {
                 next: y,
-                dist: r,
-                weight: self.spot_radiance(spot, w)? * (area * cos_z / r2),
+                dist: 0.0,
+                weight: Spectrum::splat(area),
                 eta: 1.0,
-            })
-        })?;
+            };
+            (first, None, 0.0)
+        };
         let source = first.weight;
         let mut path = LightPath {
             vertices: Vec::new(),
+            spot_free: (!single).then(|| SpotFree {
+                first: first.next,
+                out: None,
+                links: Vec::new(),
+            }),
         };
-        // Russian roulette reads the throughput after the source, `beta`.
-        let (mut it, mut beta) = (first.next, Spectrum::ONE);
-        let mut to_light = (spot.it.p - it.p).normalize();
-        let mut opl = first.dist as f64 + spot.last_leg;
+        // Russian roulette reads the throughput after the source, `beta` (without the first
+        // vertex's BSDF where that depends on the spot).
+        let (mut it, mut beta, mut to_light, mut opl) = (first.next, Spectrum::ONE, to_light, opl);
         let mut count: u32 = 1;
         loop {
             // A path of `count` hidden vertices has depth count + 2 (the per-point tracer's
@@ -122,7 +184,10 @@ impl NlosTracer<'_> {
             let next = step(rng, &mut |rng| {
                 let x = hg.sample(self.scene, rng);
                 let e = HiddenEdge::new(&x, &it, area)?;
-                let f = self.bsdf(&it).eval(it.ns, -e.w, to_light)?;
+                let f = match to_light {
+                    Some(to_light) => self.bsdf(&it).eval(it.ns, -e.w, to_light)?,
+                    None => Spectrum::ONE,
+                };
                 if !self.scene.visible(&x, it.p) {
                     return None;
                 }
@@ -140,16 +205,102 @@ impl NlosTracer<'_> {
             if !russian_roulette(&mut beta, 1.0, count, st.rr_depth, rng) {
                 break;
             }
-            to_light = (it.p - next.next.p).normalize();
+            let back = (it.p - next.next.p).normalize();
+            if let Some(free) = path.spot_free.as_mut().filter(|_| count == 1) {
+                free.out = Some(-back);
+            }
+            to_light = Some(back);
             (it, opl, count) = (next.next, opl + next.dist as f64, count + 1);
         }
         Some(path)
     }
 
-    /// The contributions of one light sample to `pixel`: its scan point – spot path (which the
-    /// per-point tracer adds at every sample) and the connection of every vertex of `light`. The
-    /// pixel's first vertex is drawn from its own stream `pixel_rng` (a camera's jittered ray; a
-    /// scan point takes no randomness), so no pixel's result depends on which others share it.
+    /// An exhaustive capture's laser grid: every spot's link to the subpath's first vertex,
+    /// shared by all scan points.
+    pub(super) fn link_light(&self, path: &mut LightPath) {
+        let Some(free) = path.spot_free.as_mut() else {
+            return;
+        };
+        if self.settings.capture_type != CaptureType::Exhaustive || path.vertices.is_empty() {
+            return;
+        }
+        // One slot per laser point, or all in one when the film has no laser axis.
+        let per_spot = self.scene.meter.film.laser_scan.is_some();
+        for (j, spot) in self.capture.spots.iter().enumerate() {
+            // Thousands of laser points per subpath: stay responsive to cancellation.
+            if j % 1024 == 1023 && self.cancel.load(Ordering::Relaxed) {
+                break;
+            }
+            if let Some(link) = self.spot_link(&free.first, free.out, spot, true) {
+                free.links.push((if per_spot { j } else { 0 }, link));
+            }
+        }
+    }
+
+    /// Laser spot `spot` lighting the first vertex `y` of a subpath that goes on along `out`: the
+    /// terms [`Self::connect_spot`] adds at a vertex, but for every spot of the subpath; its shadow
+    /// ray only if `test_visibility` (else the caller casts it).
+    fn spot_link(
+        &self,
+        y: &Interaction,
+        out: Option<Vec3A>,
+        spot: &Spot,
+        test_visibility: bool,
+    ) -> Option<SpotLink> {
+        if spot.radiance == Some(Spectrum::ZERO) || spot.incident == Spectrum::ZERO {
+            return None;
+        }
+        let u = spot.it.p - y.p;
+        let r2 = u.length_squared();
+        let r = r2.sqrt();
+        let w = u / r;
+        let cos_z = spot.it.ns.dot(-w);
+        if cos_z <= 0.0 || (test_visibility && !self.scene.visible(y, spot.it.p)) {
+            return None;
+        }
+        let source = self.spot_radiance(spot, w)? * (cos_z / r2);
+        let beyond = match out {
+            Some(out) => self
+                .bsdf(y)
+                .eval(y.ns, out, w)
+                .map_or(Spectrum::ZERO, |f| f * source),
+            None => Spectrum::ZERO,
+        };
+        Some(SpotLink {
+            to_spot: w,
+            source,
+            beyond,
+            opl: r as f64 + spot.last_leg,
+        })
+    }
+
+    /// A scan point's paths straight to the laser spots (which the per-point tracer adds at every
+    /// sample): the same at every light sample, so traced once per pixel and block instead of
+    /// once per sample. A camera's jittered first vertex is different at each sample: its spot
+    /// paths come with [`Self::connect_light`].
+    pub(super) fn fixed_contributions(&self, pixel: usize, out: &mut impl FnMut(Splat)) {
+        if self.camera.is_some() {
+            return;
+        }
+        // A scan point draws nothing from its stream.
+        let mut no_randomness = Sampler::new(0, 0, 0);
+        if let Some(x) = self.first_vertex(pixel, &mut no_randomness) {
+            self.spot_paths(pixel, &x, out);
+        }
+    }
+
+    /// The paths first vertex `x` of `pixel` → laser spot (depth 2).
+    fn spot_paths(&self, pixel: usize, x: &Vertex, out: &mut impl FnMut(Splat)) {
+        let st = self.settings;
+        if st.max_depth > 1 && st.keep(2) {
+            self.emitter_sampling(pixel, x, out);
+        }
+    }
+
+    /// The contributions of one light sample to `pixel`: with a camera, its first vertex's spot
+    /// paths, and the connection of every vertex of `light`. The pixel's first vertex is drawn
+    /// from its own stream `pixel_rng` (a camera's jittered ray; a scan point takes no
+    /// randomness), so no pixel's result depends on which others share it.
     pub(super) fn connect_light(
         &self,
         pixel: usize,
@@ -161,26 +312,59 @@ impl NlosTracer<'_> {
         let Some(x) = self.first_vertex(pixel, pixel_rng) else {
             return;
         };
-        if st.max_depth > 1 && st.keep(2) {
-            self.connect_spot(&x, &self.capture.spots[0], 0, out);
+        if self.camera.is_some() {
+            self.spot_paths(pixel, &x, out);
         }
         let (Some(light), Some(hg)) = (light, self.hidden.as_ref()) else {
             return;
         };
-        for v in &light.vertices {
-            self.connect_scan_point(&x, v, hg.total_area(), out);
+        if light.vertices.is_empty() {
+            return;
+        }
+        let area = hg.total_area();
+        match (&light.spot_free, st.capture_type) {
+            (None, _) => {
+                for v in &light.vertices {
+                    self.connect_scan_point(&x, v, area, Spots::InWeight, out);
+                }
+            }
+            (Some(free), CaptureType::Confocal) => {
+                // The pixel's own spot. It is the scan point itself (`Capture` puts it there),
+                // unless a camera's jittered ray moved the first vertex: then the spot's link to
+                // the first hidden vertex and the scan point's connection to it are one segment,
+                // whose shadow ray is cast once.
+                let spot = &self.capture.spots[pixel];
+                let same = spot.it.p == x.it.p;
+                let Some(link) = self.spot_link(&free.first, free.out, spot, !same) else {
+                    return;
+                };
+                if same && !self.scene.visible(&x.it, free.first.p) {
+                    return;
+                }
+                let links = [(0, link)];
+                for v in &light.vertices {
+                    self.connect_scan_point(&x, v, area, Spots::Linked(&links, same), out);
+                }
+            }
+            (Some(free), _) => {
+                for v in &light.vertices {
+                    self.connect_scan_point(&x, v, area, Spots::Linked(&free.links, false), out);
+                }
+            }
         }
     }
 
     /// The contribution of the path scan point `x` → light subpath ending at `v`: the terms of a
     /// hidden-geometry step from `x` to `v` (whose area density is already in `v.weight`), `v`'s
-    /// BSDF between `x` and the laser side, and the subpath's throughput.
+    /// BSDF between `x` and the laser side, and the subpath's throughput; through each of `links`
+    /// (slot, spot) for a subpath that no single spot lights.
     #[inline]
     fn connect_scan_point(
         &self,
         x: &Vertex,
         v: &LightVertex,
         area: f32,
+        spots: Spots,
         out: &mut impl FnMut(Splat),
     ) {
         let Some(e) = HiddenEdge::new(&x.it, &v.it, area) else {
@@ -189,16 +373,46 @@ impl NlosTracer<'_> {
         let Some(f_x) = self.bsdf(&x.it).eval(x.it.ns, x.wi, e.w) else {
             return;
         };
-        let Some(f_v) = self.bsdf(&v.it).eval(v.it.ns, -e.w, v.to_light) else {
-            return;
+        // v's BSDF, where its laser side does not depend on the spot.
+        let f_v = match v.to_light {
+            Some(to_light) => match self.bsdf(&v.it).eval(v.it.ns, -e.w, to_light) {
+                Some(f) => Some(f),
+                None => return,
+            },
+            None => None,
         };
-        if !self.scene.visible(&x.it, v.it.p) {
+        let seen = matches!(spots, Spots::Linked(_, true)) && v.to_light.is_none();
+        if !seen && !self.scene.visible(&x.it, v.it.p) {
             return;
         }
-        out(Splat {
-            slot: 0,
-            opl: x.opl + e.r as f64 + v.opl,
-            value: x.beta * f_x * (e.cos_y / e.r2) * f_v * v.weight,
-        });
+        let head = x.beta * f_x * (e.cos_y / e.r2);
+        let opl = x.opl + e.r as f64 + v.opl;
+        let Spots::Linked(links, _) = spots else {
+            // A single capture: the spot is in v's weight.
+            if let Some(f_v) = f_v {
+                out(Splat {
+                    slot: 0,
+                    opl,
+                    value: head * f_v * v.weight,
+                });
+            }
+            return;
+        };
+        for &(slot, link) in links {
+            let value = match f_v {
+                // A deeper vertex: the first vertex's BSDF is in the link's `beyond`.
+                Some(f_v) => head * f_v * v.weight * link.beyond,
+                // The first vertex: its BSDF between x and this spot.
+                None => match self.bsdf(&v.it).eval(v.it.ns, -e.w, link.to_spot) {
+                    Some(f) => head * f * v.weight * link.source,
+                    None => continue,
+                },
+            };
+            out(Splat {
+                slot,
+                opl: opl + link.opl,
+                value,
+            });
+        }
     }
 }

@@ -1,5 +1,6 @@
-"""Sample reuse across scan points (``nlos_sample_reuse``, on by default for single captures): a
-light subpath from the laser spot is connected to every scan point. It must be unbiased (agree with
+"""Sample reuse across scan points (``nlos_sample_reuse``, on by default): a light subpath through
+the hidden geometry is connected to every scan point (and, for confocal and exhaustive captures,
+linked to every laser spot). It must be unbiased (agree with
 one path per scan point, the estimator mitransient uses, across independent replicates), stay
 bit-identical whatever the threads or the split into parts, and fall back where it does not apply."""
 
@@ -26,10 +27,29 @@ def z(**kw):
 def glossy_wall_one_sided_box(**kw):
     """A rough-conductor relay wall (the spot's radiance depends on direction), a one-sided
     diffuse box behind it with two-sided faces inside, depth capped at 6."""
-    d = z(max_depth=6, **kw)
-    d["relay_wall"]["bsdf"] = {"type": "roughconductor", "alpha": 0.3}
+    d = glossy_wall(z(max_depth=6, **kw))
     d["box"] = {"type": "cube", "to_world": Transform4f().translate([0.3, 0.0, 1.3]).scale(0.25),
                 "bsdf": {"type": "twosided", "bsdf": {"type": "diffuse", "reflectance": 0.7}}}
+    return d
+
+
+def glossy_box(d):
+    """The same scene with a two-sided rough-conductor box."""
+    d["box"]["bsdf"] = {"type": "twosided", "bsdf": {"type": "roughconductor", "alpha": 0.5}}
+    return d
+
+
+def glossy_hidden_z(**kw):
+    """A rough-conductor hidden Z (its BSDF at the first hidden vertex depends on which spot lights
+    it), depth capped at 5."""
+    d = z(max_depth=5, **kw)
+    d["z"]["bsdf"] = {"type": "roughconductor", "alpha": 0.4}
+    return d
+
+
+def glossy_wall(d):
+    """The same scene with a rough-conductor relay wall (each spot's radiance depends on direction)."""
+    d["relay_wall"]["bsdf"] = {"type": "roughconductor", "alpha": 0.3}
     return d
 
 
@@ -45,6 +65,16 @@ CASES = {
     "T small, five-vertex signal": lambda **kw: scenes.t_nlos_2corner("small", width=6, height=6, spp=8192,
                                                                       filter_bounces=4, **kw),
     "glossy relay wall, box, depth 6": lambda **kw: glossy_wall_one_sided_box(spp=4096, **kw),
+    # Many spots: the subpath starts at its first hidden vertex, linked to each spot.
+    "Z confocal, unbounded depth": lambda **kw: z(spp=4096, capture_type="confocal", **kw),
+    "glossy hidden Z, confocal, depth 5": lambda **kw: glossy_hidden_z(spp=4096, capture_type="confocal", **kw),
+    # Chains of several hidden vertices inside a glossy box: the first vertex's BSDF towards the
+    # second depends on the spot.
+    "glossy box inside, confocal, depth 6": lambda **kw: glossy_box(glossy_wall_one_sided_box(
+        spp=4096, capture_type="confocal", **kw)),
+    "Z exhaustive 3x3, unbounded depth": lambda **kw: z(width=3, height=3, spp=4096, capture_type="exhaustive", **kw),
+    "glossy wall and hidden Z, exhaustive 3x3": lambda **kw: glossy_wall(glossy_hidden_z(
+        width=3, height=3, spp=2048, capture_type="exhaustive", **kw)),
     # HGRS (resampled) on the light subpath: N candidates per vertex, paid once for all points.
     "T small, five-vertex, HGRS": lambda **kw: scenes.t_nlos_2corner("small", width=6, height=6, spp=2048, filter_bounces=4,
                                                                      type="transient_nlos_path_rs", **kw),
@@ -52,7 +82,10 @@ CASES = {
 
 
 def features(t):
-    """Per replicate: each pixel's total and the capture's time profile (bins in tens)."""
+    """Per replicate: each pixel's (and laser point's) total and the capture's time profile (bins
+    in tens)."""
+    if t.ndim == 6:  # exhaustive (rep, H, W, LH, LW, T): (scan point, laser point) pairs as pixels
+        t = t.reshape(len(t), t.shape[1] * t.shape[2], t.shape[3] * t.shape[4], t.shape[5])
     return np.concatenate([t.sum(-1).reshape(len(t), -1), rebin(t.sum((1, 2)), 10, -1)], axis=1)
 
 
@@ -73,6 +106,15 @@ def test_reuse_agrees_with_one_path_per_scan_point(case):
     res = agreement(a[:, keep], b[:, keep])
     print(f"\n{case}: {res}")
     assert res["agree"], res
+
+
+@pytest.mark.parametrize("capture", ["confocal", "exhaustive"])
+def test_many_spots_reuse_is_bit_identical_whatever_the_threads(capture):
+    scene = nlos_rs.load_dict(z(width=5, height=3, spp=600, capture_type=capture))
+    ref = nlos_rs.render(scene, threads=1, progress=False, return_variance=True)
+    for threads in (2, 3):
+        out = nlos_rs.render(scene, threads=threads, progress=False, return_variance=True)
+        assert all(np.array_equal(a, b) for a, b in zip(out, ref))
 
 
 def test_reuse_is_bit_identical_whatever_the_threads_and_parts():
@@ -99,8 +141,12 @@ def test_reuse_is_on_by_default_and_off_where_it_does_not_apply():
 
     assert not same(z(spp=256))  # single capture: shared
     assert not same(z(spp=256, max_depth=4))
-    for d, kw in [(z(spp=256, capture_type="confocal"), {}),
-                  (z(width=2, height=2, spp=64, capture_type="exhaustive"), {}),
+    assert not same(z(spp=256, capture_type="confocal"))
+    assert not same(z(width=2, height=2, spp=64, capture_type="exhaustive"))
+    # HGRS judges a first vertex's candidates from its one spot: single captures only.
+    assert not same(z(spp=256, type="transient_nlos_path_rs"))
+    for d, kw in [(z(spp=256, capture_type="confocal", type="transient_nlos_path_rs"), {}),
+                  (z(width=2, height=2, spp=64, capture_type="exhaustive", type="transient_nlos_path_rs"), {}),
                   (z(spp=256, nlos_hidden_geometry_sampling_do_rroulette=True), {}),
                   (z(spp=256), {"target_rel_error": 0.5})]:
         assert same(d, **kw), (d["integrator"], kw)
