@@ -150,18 +150,20 @@ def plots(out: Path, gt: np.ndarray, curves: Dict[str, np.ndarray], rows: List[D
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    h, w = gt.shape[:2]
-    py, px = np.unravel_index(np.argmax(gt[..., 0].sum(-1)), (h, w))
-    opl = t0 + (np.arange(gt.shape[2]) + 0.5) * dt
-    nz = np.nonzero(gt[py, px, :, 0])[0]
+    # The brightest transient: of a scan point, or of a (scan point, laser point) pair.
+    lead = gt.shape[:-2]
+    flat = lambda a: a.reshape(-1, *a.shape[-2:])  # noqa: E731
+    at = int(np.argmax(flat(gt)[..., 0].sum(-1)))
+    opl = t0 + (np.arange(gt.shape[-2]) + 0.5) * dt
+    nz = np.nonzero(flat(gt)[at, :, 0])[0]
     lo, hi = (nz[0], nz[-1] + 1) if len(nz) else (0, len(opl))
     fig, ax = plt.subplots(figsize=(8, 3.5))
-    ax.plot(opl[lo:hi], gt[py, px, lo:hi, 0], "k", lw=2, label="ground truth")
+    ax.plot(opl[lo:hi], flat(gt)[at, lo:hi, 0], "k", lw=2, label="ground truth")
     for name, t in curves.items():
-        ax.plot(opl[lo:hi], t[py, px, lo:hi, 0], lw=1, label=LABELS[name])
+        ax.plot(opl[lo:hi], flat(t)[at, lo:hi, 0], lw=1, label=LABELS[name])
     ax.set_xlabel("optical path length (m)")
     ax.set_ylabel("radiance per bin")
-    ax.set_title(f"pixel ({px}, {py}), {tag}")
+    ax.set_title(f"index {tuple(int(i) for i in np.unravel_index(at, lead))}, {tag}")
     ax.legend(fontsize=7)
     fig.savefig(out / f"radiance_time_{tag}.png", dpi=110, bbox_inches="tight")
     plt.close(fig)

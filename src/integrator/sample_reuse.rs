@@ -88,13 +88,14 @@ struct SpotLink {
     opl: f64,
 }
 
-/// Where the spot of a connection is: in the light vertex's weight (a single capture), or linked
-/// to the subpath's first vertex by each of the (slot, link) pairs; `true` when the first vertex
-/// is already known to be visible from the scan point (a confocal spot at the scan point).
-#[derive(Clone, Copy)]
+/// Where the spot of a connection is: in the light vertex's weight (a single capture), linked to
+/// the subpath's first vertex by each of the (slot, link) pairs (an exhaustive capture), or by the
+/// confocal scan point's own link, whose shadow ray (the scan point's connection to the first
+/// vertex) the closure casts once, when first asked.
 enum Spots<'a> {
     InWeight,
-    Linked(&'a [(usize, SpotLink)], bool),
+    Linked(&'a [(usize, SpotLink)]),
+    Confocal(SpotLink, &'a mut dyn FnMut() -> bool),
 }
 
 impl NlosTracer<'_> {
@@ -329,26 +330,26 @@ impl NlosTracer<'_> {
                 }
             }
             (Some(free), CaptureType::Confocal) => {
-                // The pixel's own spot. It is the scan point itself (`Capture` puts it there),
-                // unless a camera's jittered ray moved the first vertex: then the spot's link to
-                // the first hidden vertex and the scan point's connection to it are one segment,
-                // whose shadow ray is cast once.
+                // The pixel's own spot. Where it is the scan point itself (`Capture` puts it
+                // there; a camera's jittered first vertex moves off it), the spot's link to the
+                // first hidden vertex and the scan point's connection to it are one segment, whose
+                // shadow ray is cast once, and only if some contribution needs it.
                 let spot = &self.capture.spots[pixel];
                 let same = spot.it.p == x.it.p;
                 let Some(link) = self.spot_link(&free.first, free.out, spot, !same) else {
                     return;
                 };
-                if same && !self.scene.visible(&x.it, free.first.p) {
-                    return;
-                }
-                let links = [(0, link)];
+                let mut seen = (!same).then_some(true);
+                let mut link_visible =
+                    || *seen.get_or_insert_with(|| self.scene.visible(&x.it, free.first.p));
                 for v in &light.vertices {
-                    self.connect_scan_point(&x, v, area, Spots::Linked(&links, same), out);
+                    let spots = Spots::Confocal(link, &mut link_visible);
+                    self.connect_scan_point(&x, v, area, spots, out);
                 }
             }
             (Some(free), _) => {
                 for v in &light.vertices {
-                    self.connect_scan_point(&x, v, area, Spots::Linked(&free.links, false), out);
+                    self.connect_scan_point(&x, v, area, Spots::Linked(&free.links), out);
                 }
             }
         }
@@ -381,38 +382,69 @@ impl NlosTracer<'_> {
             },
             None => None,
         };
-        let seen = matches!(spots, Spots::Linked(_, true)) && v.to_light.is_none();
-        if !seen && !self.scene.visible(&x.it, v.it.p) {
-            return;
-        }
         let head = x.beta * f_x * (e.cos_y / e.r2);
         let opl = x.opl + e.r as f64 + v.opl;
-        let Spots::Linked(links, _) = spots else {
+        match spots {
             // A single capture: the spot is in v's weight.
-            if let Some(f_v) = f_v {
+            Spots::InWeight => {
+                if let Some(f_v) = f_v
+                    && self.scene.visible(&x.it, v.it.p)
+                {
+                    out(Splat {
+                        slot: 0,
+                        opl,
+                        value: head * f_v * v.weight,
+                    });
+                }
+            }
+            Spots::Linked(links) => {
+                if !self.scene.visible(&x.it, v.it.p) {
+                    return;
+                }
+                for link in links {
+                    if let Some(value) = linked_value(self.bsdf(&v.it), v, &e, head, f_v, &link.1) {
+                        out(Splat {
+                            slot: link.0,
+                            opl: opl + link.1.opl,
+                            value,
+                        });
+                    }
+                }
+            }
+            // Every test that casts no ray first; a first vertex's connection is the link's
+            // segment, so it casts none of its own.
+            Spots::Confocal(link, link_visible) => {
+                let Some(value) = linked_value(self.bsdf(&v.it), v, &e, head, f_v, &link) else {
+                    return;
+                };
+                if !link_visible() || (f_v.is_some() && !self.scene.visible(&x.it, v.it.p)) {
+                    return;
+                }
                 out(Splat {
                     slot: 0,
-                    opl,
-                    value: head * f_v * v.weight,
+                    opl: opl + link.opl,
+                    value,
                 });
             }
-            return;
-        };
-        for &(slot, link) in links {
-            let value = match f_v {
-                // A deeper vertex: the first vertex's BSDF is in the link's `beyond`.
-                Some(f_v) => head * f_v * v.weight * link.beyond,
-                // The first vertex: its BSDF between x and this spot.
-                None => match self.bsdf(&v.it).eval(v.it.ns, -e.w, link.to_spot) {
-                    Some(f) => head * f * v.weight * link.source,
-                    None => continue,
-                },
-            };
-            out(Splat {
-                slot,
-                opl: opl + link.opl,
-                value,
-            });
         }
+    }
+}
+
+/// The value of a connection through `link` (its first factors `head`): for a deeper vertex, its
+/// BSDF `f_v` and the link's `beyond` (the first vertex's BSDF); for the first vertex, its BSDF
+/// between the scan point and the spot. `None` where it is zero.
+#[inline]
+fn linked_value(
+    bsdf: &Bsdf<Spectrum>,
+    v: &LightVertex,
+    e: &HiddenEdge,
+    head: Spectrum,
+    f_v: Option<Spectrum>,
+    link: &SpotLink,
+) -> Option<Spectrum> {
+    match f_v {
+        Some(_) if link.beyond == Spectrum::ZERO => None,
+        Some(f_v) => Some(head * f_v * v.weight * link.beyond),
+        None => Some(head * bsdf.eval(v.it.ns, -e.w, link.to_spot)? * v.weight * link.source),
     }
 }
