@@ -5,7 +5,8 @@ workload as a Markdown table, and nlos_rs's scaling from 1 to 2 threads.
     python benchmarks/suite.py [--threads 2] [--repeats 3] [--only NAME ...] [--quick]
 
 Workloads (most were not tuned for): the built-in Z (single, confocal, exhaustive); a one-sided
-flat letter at 1 m, unbounded depth, albedo 0.7; a 200k-triangle bumpy sphere; the T behind two
+flat letter at 1 m, unbounded depth, albedo 0.7, and a 200k-triangle bumpy sphere (single and
+confocal each); the T behind two
 corners (five-vertex signal); Mitsuba's own mi.cornell_box() made transient (line of sight); a
 1×1 capture; rgb. mitransient's time is its render call with dr.eval + dr.sync_thread.
 """
@@ -61,14 +62,14 @@ def workloads(quick: bool):
     def z(spp, **kw):
         return scenes.z_nlos_1corner(spp=max(1, spp // div), **kw)
 
-    def flat():
-        d = z(4096, width=64, height=64)
+    def flat(**kw):
+        d = z(4096, width=64, height=64, **kw)
         d["z"] = {"type": "obj", "filename": flat_letter_mesh(scenes.cache_dir() / "bench_flat_f.obj"),
                   "to_world": T().translate([0.0, 0.0, 1.0]), "bsdf": {"type": "diffuse", "reflectance": 0.7}}
         return d
 
-    def big():
-        d = z(1024, width=64, height=64)
+    def big(**kw):
+        d = z(1024, width=64, height=64, **kw)
         d["z"] = {"type": "obj", "filename": bumpy_sphere_mesh(scenes.cache_dir() / "bench_bumpy_200k.obj"),
                   "to_world": T().translate([0.0, 0.0, 1.0]), "bsdf": {"type": "diffuse", "reflectance": 0.8}}
         return d
@@ -87,7 +88,9 @@ def workloads(quick: bool):
         "z_confocal": (lambda: z(4096, width=64, height=64, capture_type="confocal"), "mono"),
         "z_exhaustive": (lambda: z(1024, width=8, height=8, capture_type="exhaustive"), "mono"),
         "flat_onesided": (flat, "mono"),
+        "flat_onesided_confocal": (lambda: flat(capture_type="confocal"), "mono"),
         "mesh_200k": (big, "mono"),
+        "mesh_200k_confocal": (lambda: big(capture_type="confocal"), "mono"),
         "t_two_corners": (lambda: scenes.t_nlos_2corner("small", width=32, height=32, spp=max(1, 1024 // div),
                                                         filter_bounces=4), "mono"),
         "cornell_los": (cornell, "mono"),

@@ -4,9 +4,18 @@
 use glam::Vec3A;
 use nlos_rs::geometry::{
     Prim,
-    bvh::{Accel, intersect_brute},
+    bvh::{Accel, NO_PLANE, intersect_brute},
 };
 use nlos_rs::sampling::{Sampler, square_to_uniform_sphere};
+
+/// Skip no plane.
+const NONE: [u32; 2] = [NO_PLANE; 2];
+
+/// The BVH over `prims`, each its own shape.
+fn build(prims: &[Prim]) -> Accel {
+    let shapes: Vec<u32> = (0..prims.len() as u32).collect();
+    Accel::build(prims, &shapes, prims.len())
+}
 
 /// A closed latitude–longitude sphere mesh with shared vertices, radially perturbed.
 fn closed_sphere(n_lat: usize, n_lon: usize, jitter: f32, rng: &mut Sampler) -> Vec<Prim> {
@@ -49,7 +58,7 @@ fn watertight_from_inside() {
     let mut rng = Sampler::new(1, 2, 3);
     for jitter in [0.0, 0.2] {
         let prims = closed_sphere(16, 32, jitter, &mut rng);
-        let accel = Accel::build(&prims);
+        let accel = build(&prims);
         let mut dirs: Vec<Vec3A> = (0..20_000)
             .map(|_| square_to_uniform_sphere(rng.next_2d()))
             .collect();
@@ -88,7 +97,7 @@ fn negative_zero_directions_hit() {
     // CwBvh misses every ray with a -0.0 direction component unless canonicalised (§6.1).
     let mut rng = Sampler::new(4, 5, 6);
     let prims = closed_sphere(8, 16, 0.1, &mut rng);
-    let accel = Accel::build(&prims);
+    let accel = build(&prims);
     for d in [
         Vec3A::new(-0.0, 0.0, 1.0),
         Vec3A::new(0.0, -0.0, 1.0),
@@ -104,7 +113,7 @@ fn negative_zero_directions_hit() {
             "missed {d:?}"
         );
         assert!(
-            !accel.unoccluded(Vec3A::new(0.01, 0.02, 0.03), d, 0.0, 10.0),
+            !accel.unoccluded(Vec3A::new(0.01, 0.02, 0.03), d, 0.0, 10.0, NONE),
             "shadow ray missed {d:?}"
         );
     }
@@ -127,7 +136,7 @@ fn matches_brute_force() {
     prims.push(Prim::Disk {
         inv: glam::Affine3A::from_translation(glam::Vec3::new(0.0, 0.0, -0.5)).inverse(),
     });
-    let accel = Accel::build(&prims);
+    let accel = build(&prims);
     let mut hits = 0;
     for _ in 0..20_000 {
         let o = r3() * 1.5;
@@ -144,7 +153,7 @@ fn matches_brute_force() {
             _ => panic!("BVH and brute force disagree: {a:?} vs {b:?}"),
         }
         assert_eq!(
-            accel.unoccluded(o, d, 0.0, 2.0),
+            accel.unoccluded(o, d, 0.0, 2.0, NONE),
             intersect_brute(&prims, o, d, 0.0, 2.0).is_none()
         );
     }
@@ -179,4 +188,55 @@ fn analytic_primitives() {
         d.intersect(Vec3A::new(2.1, 0.0, 0.0), Vec3A::Z, 0.0, f32::INFINITY)
             .is_none()
     );
+}
+
+/// A shadow segment from a point of one planar shape to a point of another never meets either
+/// plane, so skipping their primitives changes no answer: with an occluder in between (tested),
+/// and without one (nothing left to test).
+#[test]
+fn skipping_the_end_planes_changes_no_answer() {
+    let mut rng = Sampler::new(11, 0, 0);
+    let quad = |z: f32, s: f32| {
+        let v = |x: f32, y: f32| Vec3A::new(x * s, y * s, z);
+        [
+            Prim::triangle([v(-1.0, -1.0), v(1.0, -1.0), v(1.0, 1.0)]),
+            Prim::triangle([v(-1.0, -1.0), v(1.0, 1.0), v(-1.0, 1.0)]),
+        ]
+    };
+    // Shape 0: a relay wall at z = 0; shape 1: a flat letter-sized quad at z = 1; shape 2: a
+    // tilted occluder between them.
+    let mut prims: Vec<Prim> = quad(0.0, 1.0).into();
+    prims.extend(quad(1.0, 0.4));
+    let mut shapes = vec![0u32, 0, 1, 1];
+    for with_occluder in [true, false] {
+        if with_occluder {
+            prims.push(Prim::triangle([
+                Vec3A::new(-0.3, -0.5, 0.4),
+                Vec3A::new(0.5, -0.2, 0.6),
+                Vec3A::new(0.0, 0.5, 0.5),
+            ]));
+            shapes.push(2);
+        } else {
+            prims.truncate(4);
+            shapes.truncate(4);
+        }
+        let accel = Accel::build(&prims, &shapes, 3);
+        let ends = [accel.plane_of(0), accel.plane_of(1)];
+        assert!(ends.iter().all(|&k| k != NO_PLANE) && accel.plane_of(2) != NO_PLANE);
+        let (mut blocked, n) = (0, 20_000);
+        for _ in 0..n {
+            let mut u = || rng.next_1d() * 2.0 - 1.0;
+            let x = Vec3A::new(u(), u(), 0.0);
+            let y = Vec3A::new(0.4 * u(), 0.4 * u(), 1.0);
+            // As `shadow_segment`: off the wall along its normal, ending short of y.
+            let o = x + Vec3A::Z * 1e-4;
+            let d = (y - o).normalize();
+            let tmax = (y - o).length() * (1.0 - 1e-3);
+            let full = accel.unoccluded(o, d, 0.0, tmax, NONE);
+            assert_eq!(accel.unoccluded(o, d, 0.0, tmax, ends), full);
+            blocked += !full as usize;
+        }
+        // The occluder blocks a fair share of the segments; without it none is blocked.
+        assert_eq!(blocked > n / 20, with_occluder, "{blocked}");
+    }
 }

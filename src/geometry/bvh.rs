@@ -46,6 +46,45 @@ pub struct Accel {
     prims: Vec<Prim>,
     /// Slot → index of the primitive in scene order.
     slot_to_prim: Vec<u32>,
+    /// Slot → the plane its primitive lies in: its shape's index if the whole shape is planar,
+    /// else [`NO_PLANE`].
+    plane: Vec<u32>,
+    /// Per shape: all its primitives are triangles in one plane.
+    planar: Vec<bool>,
+    /// Per shape: its number of primitives.
+    shape_prims: Vec<u32>,
+}
+
+/// The plane key of a primitive on no shared plane.
+pub const NO_PLANE: u32 = u32::MAX;
+
+/// Whether a primitive of plane key `key` lies on one of the planes `skip`.
+#[inline]
+fn on_skipped(key: u32, skip: [u32; 2]) -> bool {
+    key != NO_PLANE && (key == skip[0] || key == skip[1])
+}
+
+/// Per shape (of `shapes`, owning `prims` by `prim_shape`): whether all its primitives are
+/// triangles whose vertices lie within rounding (1e-6 of the coordinates' magnitude) of one plane
+/// (a rectangle, a relay wall, a flat letter).
+fn planar_shapes(prims: &[Prim], prim_shape: &[u32], shapes: usize) -> Vec<bool> {
+    let mut plane: Vec<Option<(Vec3A, f32)>> = vec![None; shapes];
+    let mut planar = vec![true; shapes];
+    for (p, &s) in prims.iter().zip(prim_shape) {
+        let s = s as usize;
+        if !planar[s] {
+            continue;
+        }
+        let Prim::Triangle { v, n } = p else {
+            planar[s] = false;
+            continue;
+        };
+        let (n0, d0) = *plane[s].get_or_insert((*n, n.dot(v[0])));
+        planar[s] = v
+            .iter()
+            .all(|v| (n0.dot(*v) - d0).abs() <= 1e-6 * (1.0 + v.abs().max_element()));
+    }
+    planar
 }
 
 /// Turn `-0.0` components into `+0.0` (CwBvh's node test misses rays with a `-0.0` component);
@@ -56,19 +95,43 @@ pub fn canonical_dir(d: Vec3A) -> Vec3A {
 }
 
 impl Accel {
-    /// Build over `prims` (scene order).
-    pub fn build(prims: &[Prim]) -> Self {
+    /// Build over `prims` (scene order), owned by the `shapes` shapes by `prim_shape`.
+    pub fn build(prims: &[Prim], prim_shape: &[u32], shapes: usize) -> Self {
         let bvh = build_cwbvh(
             prims,
             BvhBuildParams::medium_build(),
             &mut Default::default(),
         );
         let slot_to_prim = bvh.primitive_indices.clone();
+        let planar = planar_shapes(prims, prim_shape, shapes);
+        let plane = slot_to_prim
+            .iter()
+            .map(|&i| {
+                let s = prim_shape[i as usize];
+                if planar[s as usize] { s } else { NO_PLANE }
+            })
+            .collect();
+        let mut shape_prims = vec![0u32; shapes];
+        for &s in prim_shape {
+            shape_prims[s as usize] += 1;
+        }
         let prims = slot_to_prim.iter().map(|&i| prims[i as usize]).collect();
         Self {
             bvh,
             prims,
             slot_to_prim,
+            plane,
+            planar,
+            shape_prims,
+        }
+    }
+
+    /// The plane key of a point on shape `shape`: the shape if it is planar, else [`NO_PLANE`].
+    #[inline]
+    pub fn plane_of(&self, shape: u32) -> u32 {
+        match self.planar.get(shape as usize) {
+            Some(true) => shape,
+            _ => NO_PLANE,
         }
     }
 
@@ -118,16 +181,32 @@ impl Accel {
         best
     }
 
-    /// True if nothing lies on the open segment `o + t d`, `t ∈ (tmin, tmax)`.
-    pub fn unoccluded(&self, o: Vec3A, d: Vec3A, tmin: f32, tmax: f32) -> bool {
-        if self.prims.is_empty() {
+    /// True if nothing lies on the open segment `o + t d`, `t ∈ (tmin, tmax)`, where the segment
+    /// starts off one of the planes `skip` and ends short of the other ([`Self::plane_of`]): a
+    /// segment meets a plane at most once, so it meets no primitive of either plane, and those
+    /// are not tested (a shadow ray from a flat relay wall to a flat hidden shape tests nothing of
+    /// either).
+    pub fn unoccluded(&self, o: Vec3A, d: Vec3A, tmin: f32, tmax: f32, skip: [u32; 2]) -> bool {
+        // Nothing but the two planes (a flat hidden shape behind a flat relay wall): nothing to test.
+        let on_plane = |k: u32| match k {
+            NO_PLANE => 0,
+            k => self.shape_prims[k as usize] as usize,
+        };
+        let skipped = on_plane(skip[0])
+            + if skip[1] != skip[0] {
+                on_plane(skip[1])
+            } else {
+                0
+            };
+        if self.prims.len() == skipped {
             return true;
         }
         if near_axis_plane(d) {
             return self
                 .prims
                 .iter()
-                .all(|p| p.intersect(o, d, tmin, tmax).is_none());
+                .zip(&self.plane)
+                .all(|(p, &k)| on_skipped(k, skip) || p.intersect(o, d, tmin, tmax).is_none());
         }
         let ray = Self::ray(o, d, tmin, tmax);
         TRAVERSAL.with_borrow_mut(|state| {
@@ -143,9 +222,10 @@ impl Accel {
                     node.intersect_ray(&ray, state.oct_inv4),
                     {
                         let slot = state.primitive_id as usize;
-                        if self.prims[slot]
-                            .intersect(ray.origin, ray.direction, ray.tmin, ray.tmax)
-                            .is_some_and(|h| h.0 < ray.tmax)
+                        if !on_skipped(self.plane[slot], skip)
+                            && self.prims[slot]
+                                .intersect(ray.origin, ray.direction, ray.tmin, ray.tmax)
+                                .is_some_and(|h| h.0 < ray.tmax)
                         {
                             miss = false;
                             break 'any;

@@ -51,6 +51,22 @@ impl HiddenEdge {
     }
 }
 
+/// The path vertex at `it`, seen from the sensor at `sensor`: the direction back to it, and the
+/// first leg if it is accounted for.
+fn sensor_vertex(settings: &NlosSettings, it: Interaction, sensor: Vec3A) -> Vertex {
+    Vertex {
+        it,
+        wi: (sensor - it.p).normalize(),
+        beta: Spectrum::ONE,
+        eta: 1.0,
+        opl: if settings.account_first_and_last_bounces {
+            (sensor - it.p).length() as f64
+        } else {
+            0.0
+        },
+    }
+}
+
 /// A prepared `transient_nlos_path(_rs)` render.
 pub struct NlosTracer<'a> {
     pub(super) scene: &'a Scene,
@@ -64,6 +80,8 @@ pub struct NlosTracer<'a> {
     irradiance: Spectrum,
     /// Scan points and laser spots.
     pub(super) capture: Capture,
+    /// Each scan point as a path's first vertex (without a camera).
+    scan_vertices: Vec<Option<Vertex>>,
     /// A perspective camera as the sensor, instead of the scan points.
     pub(super) camera: Option<&'a Camera>,
     /// Set by the caller to stop the render.
@@ -98,6 +116,7 @@ impl<'a> NlosTracer<'a> {
             None
         };
         let bsdfs = scene.shape_bsdfs(mono);
+        let capture = Capture::new(scene, mono, cancel)?;
         Ok(Self {
             scene,
             settings,
@@ -108,7 +127,15 @@ impl<'a> NlosTracer<'a> {
                 .collect(),
             bsdfs,
             irradiance: nlos.laser.irradiance.spectrum(mono),
-            capture: Capture::new(scene, mono, cancel)?,
+            scan_vertices: match nlos.camera {
+                Some(_) => Vec::new(),
+                None => capture
+                    .scan_points
+                    .iter()
+                    .map(|it| it.map(|it| sensor_vertex(settings, it, scene.meter.origin)))
+                    .collect(),
+            },
+            capture,
             camera: nlos.camera.as_ref(),
             cancel,
             hidden,
@@ -146,7 +173,7 @@ impl<'a> NlosTracer<'a> {
         let Some(f) = self.bsdf(x).eval(x.ns, wi, w) else {
             return;
         };
-        if !self.scene.visible(x, spot.it.p) {
+        if !self.scene.visible_to(x, &spot.it) {
             return;
         }
         let Some(radiance) = self.spot_radiance(spot, w) else {
@@ -215,7 +242,7 @@ impl<'a> NlosTracer<'a> {
         let y = hg.sample(self.scene, rng);
         let e = HiddenEdge::new(x, &y, hg.total_area())?;
         let f = self.bsdf(x).eval(x.ns, wi, e.w)?;
-        if !self.scene.visible(x, y.p) {
+        if !self.scene.visible_to(x, &y) {
             return None;
         }
         Some(Step {
@@ -242,31 +269,21 @@ impl<'a> NlosTracer<'a> {
     }
 
     /// The path's first vertex x₁ for pixel `pixel`, the direction back to the sensor and the
-    /// optical path so far: the scan point seen from the sensor origin, or with a camera the
-    /// surface its jittered ray hits (the first leg measured from the pinhole).
+    /// optical path so far: the scan point seen from the sensor origin (prepared once), or with a
+    /// camera the surface its jittered ray hits (the first leg measured from the pinhole).
     #[inline]
     pub(super) fn first_vertex(&self, pixel: usize, rng: &mut Sampler) -> Option<Vertex> {
-        let account = self.settings.account_first_and_last_bounces;
-        let (it, sensor) = match self.camera {
-            None => (self.capture.scan_points[pixel]?, self.scene.meter.origin),
-            Some(camera) => {
-                let film = &self.scene.meter.film;
-                let r = camera.pixel_ray(pixel, film.width, film.height, rng.next_2d());
-                let hit = self.scene.accel.intersect(r.o, r.d, r.tmin, r.tmax)?;
-                (self.scene.interaction(r.o, r.d, &hit), r.o)
-            }
+        let Some(camera) = self.camera else {
+            return self.scan_vertices[pixel];
         };
-        Some(Vertex {
-            it,
-            wi: (sensor - it.p).normalize(),
-            beta: Spectrum::ONE,
-            eta: 1.0,
-            opl: if account {
-                (sensor - it.p).length() as f64
-            } else {
-                0.0
-            },
-        })
+        let film = &self.scene.meter.film;
+        let r = camera.pixel_ray(pixel, film.width, film.height, rng.next_2d());
+        let hit = self.scene.accel.intersect(r.o, r.d, r.tmin, r.tmax)?;
+        Some(sensor_vertex(
+            self.settings,
+            self.scene.interaction(r.o, r.d, &hit),
+            r.o,
+        ))
     }
 
     /// Emitter sampling at a vertex: laser sampling to the capture's spot(s), or NEE to the laser.

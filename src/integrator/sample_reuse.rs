@@ -129,7 +129,7 @@ impl NlosTracer<'_> {
                 let r = r2.sqrt();
                 let w = u / r;
                 let cos_z = spot.it.ns.dot(-w);
-                if cos_z <= 0.0 || !self.scene.visible(&y, spot.it.p) {
+                if cos_z <= 0.0 || !self.scene.visible_to(&y, &spot.it) {
                     return None;
                 }
                 Some(Step {
@@ -189,7 +189,7 @@ impl NlosTracer<'_> {
                     Some(to_light) => self.bsdf(&it).eval(it.ns, -e.w, to_light)?,
                     None => Spectrum::ONE,
                 };
-                if !self.scene.visible(&x, it.p) {
+                if !self.scene.visible_to(&x, &it) {
                     return None;
                 }
                 Some(Step {
@@ -256,7 +256,7 @@ impl NlosTracer<'_> {
         let r = r2.sqrt();
         let w = u / r;
         let cos_z = spot.it.ns.dot(-w);
-        if cos_z <= 0.0 || (test_visibility && !self.scene.visible(y, spot.it.p)) {
+        if cos_z <= 0.0 || (test_visibility && !self.scene.visible_to(y, &spot.it)) {
             return None;
         }
         let source = self.spot_radiance(spot, w)? * (cos_z / r2);
@@ -283,9 +283,8 @@ impl NlosTracer<'_> {
         if self.camera.is_some() {
             return;
         }
-        // A scan point draws nothing from its stream.
-        let mut no_randomness = Sampler::new(0, 0, 0);
-        if let Some(x) = self.first_vertex(pixel, &mut no_randomness) {
+        if let Some(x) = self.first_vertex(pixel, &mut Sampler::new(0, 0, 0)) {
+            // (A scan point draws nothing from the stream.)
             self.spot_paths(pixel, &x, out);
         }
     }
@@ -341,7 +340,7 @@ impl NlosTracer<'_> {
                 };
                 let mut seen = (!same).then_some(true);
                 let mut link_visible =
-                    || *seen.get_or_insert_with(|| self.scene.visible(&x.it, free.first.p));
+                    || *seen.get_or_insert_with(|| self.scene.visible_to(&x.it, &free.first));
                 for v in &light.vertices {
                     let spots = Spots::Confocal(link, &mut link_visible);
                     self.connect_scan_point(&x, v, area, spots, out);
@@ -388,7 +387,7 @@ impl NlosTracer<'_> {
             // A single capture: the spot is in v's weight.
             Spots::InWeight => {
                 if let Some(f_v) = f_v
-                    && self.scene.visible(&x.it, v.it.p)
+                    && self.scene.visible_to(&x.it, &v.it)
                 {
                     out(Splat {
                         slot: 0,
@@ -398,7 +397,7 @@ impl NlosTracer<'_> {
                 }
             }
             Spots::Linked(links) => {
-                if !self.scene.visible(&x.it, v.it.p) {
+                if !self.scene.visible_to(&x.it, &v.it) {
                     return;
                 }
                 for link in links {
@@ -417,7 +416,7 @@ impl NlosTracer<'_> {
                 let Some(value) = linked_value(self.bsdf(&v.it), v, &e, head, f_v, &link) else {
                     return;
                 };
-                if !link_visible() || (f_v.is_some() && !self.scene.visible(&x.it, v.it.p)) {
+                if !link_visible() || (f_v.is_some() && !self.scene.visible_to(&x.it, &v.it)) {
                     return;
                 }
                 out(Splat {

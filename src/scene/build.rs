@@ -536,7 +536,8 @@ impl Scene {
         };
         // The BVH builds in parallel, on a pool of its own (see `parallel`).
         let accel = std::sync::Arc::new(
-            crate::parallel::pool(None)?.install(|| Accel::build(&parts.prims)),
+            crate::parallel::pool(None)?
+                .install(|| Accel::build(&parts.prims, &parts.prim_shape, parts.shapes.len())),
         );
         Ok(Self {
             shapes: parts.shapes,

@@ -11,7 +11,11 @@ pub use area_sampler::AreaSampler;
 use crate::bsdf::Bsdf;
 use crate::emitter::{Light, Projector};
 use crate::error::{NlosError, Result};
-use crate::geometry::{Hit, Interaction, Prim, bvh::Accel, shadow_segment};
+use crate::geometry::{
+    Hit, Interaction, Prim,
+    bvh::{Accel, NO_PLANE},
+    shadow_segment,
+};
 use crate::math::{Spectrum, Transform, look_at};
 use crate::props::Colour;
 use crate::sensor::{Camera, Meter};
@@ -155,7 +159,17 @@ impl Scene {
     #[inline]
     pub fn visible(&self, x: &Interaction, target: Vec3A) -> bool {
         let (o, d, tmax) = shadow_segment(x, target);
-        self.accel.unoccluded(o, d, 0.0, tmax)
+        let skip = [self.accel.plane_of(x.shape), NO_PLANE];
+        self.accel.unoccluded(o, d, 0.0, tmax, skip)
+    }
+
+    /// Whether the surface points `x` and `y` see each other ([`Self::visible`]; the segment ends
+    /// on `y`'s surface, so neither's plane is tested).
+    #[inline]
+    pub fn visible_to(&self, x: &Interaction, y: &Interaction) -> bool {
+        let (o, d, tmax) = shadow_segment(x, y.p);
+        let skip = [self.accel.plane_of(x.shape), self.accel.plane_of(y.shape)];
+        self.accel.unoccluded(o, d, 0.0, tmax, skip)
     }
 
     /// The relay-wall point of a uv in [0, 1]² (`rectangle.sample_position`: to_world·(2u−1, 2v−1, 0)).
