@@ -82,6 +82,8 @@ pub struct NlosTracer<'a> {
     pub(super) capture: Capture,
     /// Each scan point as a path's first vertex (without a camera).
     scan_vertices: Vec<Option<Vertex>>,
+    /// The scan points' bounding box (without a camera).
+    pub(super) scan_box: Option<[Vec3A; 2]>,
     /// A perspective camera as the sensor, instead of the scan points.
     pub(super) camera: Option<&'a Camera>,
     /// Set by the caller to stop the render.
@@ -134,6 +136,13 @@ impl<'a> NlosTracer<'a> {
                     .iter()
                     .map(|it| it.map(|it| sensor_vertex(settings, it, scene.meter.origin)))
                     .collect(),
+            },
+            scan_box: match nlos.camera {
+                Some(_) => None,
+                None => capture.scan_points.iter().flatten().fold(None, |b, it| {
+                    let [lo, hi] = b.unwrap_or([it.p, it.p]);
+                    Some([lo.min(it.p), hi.max(it.p)])
+                }),
             },
             capture,
             camera: nlos.camera.as_ref(),

@@ -168,7 +168,10 @@ impl NlosTracer<'_> {
         loop {
             // A path of `count` hidden vertices has depth count + 2 (the per-point tracer's
             // emitter sampling at loop depth `count`).
-            if count.saturating_add(1) < st.max_depth && st.keep(count + 2) {
+            if count.saturating_add(1) < st.max_depth
+                && st.keep(count + 2)
+                && self.may_face_scan_points(&it)
+            {
                 path.vertices.push(LightVertex {
                     it,
                     to_light,
@@ -236,6 +239,25 @@ impl NlosTracer<'_> {
                 free.links.push((if per_spot { j } else { 0 }, link));
             }
         }
+    }
+
+    /// Whether the hidden point `y` may face some scan point: false when every corner of the
+    /// scan points' bounding box lies behind its shading plane (by more than rounding), for then
+    /// so does every scan point, and each connection to it would fail its cosine test (a camera's
+    /// jittered first vertices have no such box: always true).
+    #[inline]
+    fn may_face_scan_points(&self, y: &Interaction) -> bool {
+        self.scan_box.is_none_or(|[lo, hi]| {
+            (0..8).any(|i| {
+                let c = Vec3A::select(
+                    glam::BVec3A::new(i & 1 != 0, i & 2 != 0, i & 4 != 0),
+                    hi,
+                    lo,
+                );
+                let u = c - y.p;
+                y.ns.dot(u) > -1e-5 * u.length()
+            })
+        })
     }
 
     /// Laser spot `spot` lighting the first vertex `y` of a subpath that goes on along `out`: the
