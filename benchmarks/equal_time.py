@@ -47,7 +47,7 @@ def main() -> None:
 
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    techniques = "baseline,gaussian,hgrs,reuse,reuse_hgrs,reuse_auto,reuse_ld_auto,mitransient"
+    techniques = "baseline,gaussian,hgrs,reuse,reuse_hgrs,reuse_auto,reuse_ld,reuse_ld_auto,mitransient"
     runs = {  # name → (scene, spp, ground-truth spp)
         "flat_f_1corner": (str(flat_letter_xml(out)), 4096, 1 << 21),
         "flat_f_1corner_exhaustive": (str(flat_letter_xml(out, "exhaustive", 8)), 4096, 1 << 20),

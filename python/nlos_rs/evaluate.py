@@ -54,12 +54,13 @@ DEFAULTS = {  # size, spp, ground-truth spp, sigma, bandwidth
 THESIS = ["baseline", "hgrs", "hgrs_rejection", "gaussian", "epanechnikov"]
 # Beyond the thesis (docs/techniques.md): nlos_rs' defaults (sample reuse across scan points), the
 # automatic kernel width on top, and mitransient itself on the same scene.
-BEYOND = ["reuse", "reuse_hgrs", "reuse_auto", "reuse_ld_auto", "mitransient"]
+BEYOND = ["reuse", "reuse_hgrs", "reuse_auto", "reuse_ld", "reuse_ld_auto", "mitransient"]
 TECHNIQUES = THESIS + BEYOND
 LABELS = {"baseline": "Baseline", "hgrs": "HGRS, resampled (unbiased)", "hgrs_rejection": "HGRS, rejection (thesis)",
           "gaussian": "Gaussian kernel", "epanechnikov": "Epanechnikov kernel",
           "reuse": "Sample reuse (nlos_rs default)", "reuse_hgrs": "Sample reuse + HGRS (resampled)",
           "reuse_auto": "Sample reuse + auto Gaussian width",
+          "reuse_ld": "Sample reuse + Sobol'",
           "reuse_ld_auto": "Sample reuse + Sobol' + auto width",
           "mitransient": "mitransient 1.3.1"}
 
@@ -75,6 +76,7 @@ def options(name: str, args) -> dict:
         "reuse_hgrs": {"integrator": "transient_nlos_path_rs", "hgrs_max_iterations": args.hgrs_iterations,
                        "hgrs_estimator": "resampled"},
         "reuse_auto": {"kernel_sigma": "auto"},
+        "reuse_ld": {"sampler": "stratified"},
         "reuse_ld_auto": {"kernel_sigma": "auto", "sampler": "stratified"},
         "mitransient": {},
     }[name]
