@@ -396,7 +396,36 @@ fn render_by(
     pool(opts.threads)?.install(|| {
         with_tracer!(scene, opts, monitor, |tracer| {
             let job = Sampling::new(tracer, plan, monitor);
-            if plan.chunks == 1 && !plan.shared {
+            if plan.chunks == 1 && plan.shared {
+                // Every pixel accumulates in place, light sample by light sample: one film.
+                let (len, c) = (plan.pixel_len, plan.channels);
+                let mut transient = vec![0.0f32; plan.pixels * len];
+                let mut steady = vec![0.0f32; plan.pixels * c];
+                let mut variance = vec![0.0f32; if plan.variance { plan.pixels * len } else { 0 }];
+                let mut sums = vec![[0.0f64; 3]; plan.pixels];
+                let out = RunSums {
+                    transient: &mut transient,
+                    steady: &mut sums,
+                    squares: &mut variance,
+                };
+                job.trace_shared(0..plan.pixels, 0, plan.spp, out)?;
+                let mut sqs = per_task(&mut variance, len, plan.pixels);
+                transient
+                    .par_chunks_mut(len)
+                    .zip(steady.par_chunks_mut(c))
+                    .zip(sqs.par_iter_mut())
+                    .zip(&sums)
+                    .for_each(|(((buf, st), sq), sum)| {
+                        if let Some(sq) = sq.as_deref_mut() {
+                            variance_of_mean(buf, sq, plan.spp);
+                        }
+                        normalise(plan, buf, sum, st, plan.spp);
+                    });
+                drop(sqs);
+                let mut out = rendered(plan, transient, steady);
+                out.variance = plan.variance.then_some(variance);
+                Ok(out)
+            } else if plan.chunks == 1 {
                 // Each pixel accumulates in place, in sample order.
                 let (len, c) = (plan.pixel_len, plan.channels);
                 let mut transient = vec![0.0f32; plan.pixels * len];
@@ -636,12 +665,12 @@ macro_rules! with_tracer {
 }
 use with_tracer;
 
-/// A run of pixels' sums, pixel by pixel: transient, steady, and (with variance) each sample's
-/// squared transient values.
-struct RunSums {
-    transient: Vec<f32>,
-    steady: Vec<[f64; 3]>,
-    squares: Vec<f32>,
+/// Where a run of pixels' sums go, pixel by pixel: transient, steady, and (with variance) each
+/// sample's squared transient values.
+struct RunSums<'a> {
+    transient: &'a mut [f32],
+    steady: &'a mut [[f64; 3]],
+    squares: &'a mut [f32],
 }
 
 /// The values one sample adds to a buffer, kept apart so that their squares can be summed once
@@ -817,20 +846,8 @@ impl<'a, T: Tracer> Sampling<'a, T> {
     /// their deterministic rest in parallel), then connected to the pixels in parallel, each pixel
     /// to every subpath in sample order (its buffer stays in cache), so no pixel's sums depend on
     /// the threads.
-    fn trace_shared(&self, pixels: Range<usize>, first: u64, end: u64) -> Result<RunSums> {
+    fn trace_shared(&self, pixels: Range<usize>, first: u64, end: u64, out: RunSums) -> Result<()> {
         let len = self.plan.pixel_len;
-        let mut out = RunSums {
-            transient: vec![0.0f32; pixels.len() * len],
-            steady: vec![[0.0f64; 3]; pixels.len()],
-            squares: vec![
-                0.0f32;
-                if self.plan.variance {
-                    pixels.len() * len
-                } else {
-                    0
-                }
-            ],
-        };
         let cancel = &self.monitor.cancel;
         let mut start = first;
         while start < end {
@@ -850,7 +867,7 @@ impl<'a, T: Tracer> Sampling<'a, T> {
                 .par_iter_mut()
                 .flatten()
                 .for_each(|light| self.tracer.link_light(light));
-            let mut squares = per_task(&mut out.squares, len, pixels.len());
+            let mut squares = per_task(out.squares, len, pixels.len());
             out.transient
                 .par_chunks_mut(len.max(1))
                 .zip(out.steady.par_iter_mut())
@@ -897,7 +914,7 @@ impl<'a, T: Tracer> Sampling<'a, T> {
                 .fetch_add(n * pixels.len() as u64, Ordering::Relaxed);
             start += n;
         }
-        Ok(out)
+        Ok(())
     }
 
     /// An empty part of `pixels` × `chunks`.
@@ -916,26 +933,39 @@ impl<'a, T: Tracer> Sampling<'a, T> {
     /// A shared render's part: its chunks of light samples in parallel, each over all its pixels.
     fn part_shared(&self, pixels: Range<usize>, chunks: Range<u64>) -> Result<Part> {
         let (len, k) = (self.plan.pixel_len, (chunks.end - chunks.start) as usize);
-        let done: Vec<(u64, RunSums)> = chunks
+        let n = pixels.len();
+        let sq_len = if self.plan.variance { n * len } else { 0 };
+        let done: Vec<(u64, Vec<f32>, Vec<[f64; 3]>, Vec<f32>)> = chunks
             .clone()
             .into_par_iter()
             .map(|chunk| {
                 let (first, end) = self.plan.chunk_samples(chunk);
-                Ok((chunk, self.trace_shared(pixels.clone(), first, end)?))
+                let (mut t, mut st, mut sq) = (
+                    vec![0.0f32; n * len],
+                    vec![[0.0f64; 3]; n],
+                    vec![0.0f32; sq_len],
+                );
+                let out = RunSums {
+                    transient: &mut t,
+                    steady: &mut st,
+                    squares: &mut sq,
+                };
+                self.trace_shared(pixels.clone(), first, end, out)?;
+                Ok((chunk, t, st, sq))
             })
             .collect::<Result<_>>()?;
         // Into the part's layout: per pixel, per chunk.
         let mut part = self.empty_part(pixels, chunks);
-        for (chunk, sums) in done {
+        for (chunk, transient, steady, squares) in done {
             let kc = (chunk - part.chunks.start) as usize;
-            for i in 0..part.pixels.len() {
+            for i in 0..n {
                 let at = i * k + kc;
                 let (to, from) = (at * len..(at + 1) * len, i * len..(i + 1) * len);
-                part.transient[to.clone()].copy_from_slice(&sums.transient[from.clone()]);
+                part.transient[to.clone()].copy_from_slice(&transient[from.clone()]);
                 if self.plan.variance {
-                    part.squares[to].copy_from_slice(&sums.squares[from]);
+                    part.squares[to].copy_from_slice(&squares[from]);
                 }
-                part.steady[at * 3..at * 3 + 3].copy_from_slice(&sums.steady[i]);
+                part.steady[at * 3..at * 3 + 3].copy_from_slice(&steady[i]);
             }
         }
         Ok(part)
