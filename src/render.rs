@@ -665,6 +665,9 @@ macro_rules! with_tracer {
 }
 use with_tracer;
 
+/// A chunk's sums over a run of pixels: the chunk, transient, steady and squares ([`RunSums`]).
+type ChunkSums = (u64, Vec<f32>, Vec<[f64; 3]>, Vec<f32>);
+
 /// Where a run of pixels' sums go, pixel by pixel: transient, steady, and (with variance) each
 /// sample's squared transient values.
 struct RunSums<'a> {
@@ -935,7 +938,7 @@ impl<'a, T: Tracer> Sampling<'a, T> {
         let (len, k) = (self.plan.pixel_len, (chunks.end - chunks.start) as usize);
         let n = pixels.len();
         let sq_len = if self.plan.variance { n * len } else { 0 };
-        let done: Vec<(u64, Vec<f32>, Vec<[f64; 3]>, Vec<f32>)> = chunks
+        let done: Vec<ChunkSums> = chunks
             .clone()
             .into_par_iter()
             .map(|chunk| {
