@@ -961,14 +961,14 @@ impl<'a, T: Tracer> Sampling<'a, T> {
         let mut part = self.empty_part(pixels, chunks);
         for (chunk, transient, steady, squares) in done {
             let kc = (chunk - part.chunks.start) as usize;
-            for i in 0..n {
+            for (i, sum) in steady.iter().enumerate() {
                 let at = i * k + kc;
                 let (to, from) = (at * len..(at + 1) * len, i * len..(i + 1) * len);
                 part.transient[to.clone()].copy_from_slice(&transient[from.clone()]);
                 if self.plan.variance {
                     part.squares[to].copy_from_slice(&squares[from]);
                 }
-                part.steady[at * 3..at * 3 + 3].copy_from_slice(&steady[i]);
+                part.steady[at * 3..at * 3 + 3].copy_from_slice(sum);
             }
         }
         Ok(part)
