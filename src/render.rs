@@ -156,6 +156,10 @@ pub struct Plan {
     /// Each sample is a light subpath shared by every pixel ([`crate::integrator::sample_reuse`]):
     /// a chunk is a run of light samples over the whole film.
     pub shared: bool,
+    /// Blocks of light samples a shared render traces (in parallel) before connecting them to
+    /// the pixels: several, so that tracing them uses every thread and the film is swept less
+    /// often; one for a film with laser slots, whose subpaths carry a link per laser point.
+    pub pass_blocks: u64,
 }
 
 impl Plan {
@@ -239,6 +243,7 @@ impl Plan {
             chunks_per_pixel(pixels as u64, spp, (pixel_len * 4) as u64)
         };
         Ok(Self {
+            pass_blocks: if film.laser_slots() > 1 { 1 } else { 8 },
             transient_shape,
             steady_shape: vec![film.height, film.width, c],
             film,
@@ -844,28 +849,40 @@ impl<'a, T: Tracer> Sampling<'a, T> {
         Ok(start - first)
     }
 
-    /// Light samples [first, end) of a shared render, connected to the pixels `pixels`. Block by
-    /// block, the light subpaths are traced once (in sample order from the block's stream, then
-    /// their deterministic rest in parallel), then connected to the pixels in parallel, each pixel
-    /// to every subpath in sample order (its buffer stays in cache), so no pixel's sums depend on
-    /// the threads.
+    /// Light samples [first, end) of a shared render, connected to the pixels `pixels`. Pass by
+    /// pass of [`Plan::pass_blocks`] blocks, the light subpaths are traced once (the blocks in
+    /// parallel, each in sample order from its own stream, then their deterministic rest in
+    /// parallel), then connected to the pixels in parallel, each pixel to every subpath in sample
+    /// order (its buffer stays in cache), so no pixel's sums depend on the threads or the passes.
     fn trace_shared(&self, pixels: Range<usize>, first: u64, end: u64, out: RunSums) -> Result<()> {
         let len = self.plan.pixel_len;
         let cancel = &self.monitor.cancel;
         let mut start = first;
         while start < end {
-            let n = BLOCK.min(end - start);
-            // One stream per block of light samples, the same for every pixel.
-            let mut rng = self.stream(SHARED_STREAM, start / BLOCK);
-            let mut lights = Vec::with_capacity(n as usize);
-            for k in start..start + n {
-                rng.start(k);
-                lights.push(self.tracer.trace_light(&mut rng));
-                // A light subpath can be expensive (HGRS candidates): stay responsive.
-                if cancel.load(Ordering::Relaxed) {
-                    return Err(NlosError::Interrupted);
-                }
-            }
+            let pass_end = (start + self.plan.pass_blocks * BLOCK).min(end);
+            let n = pass_end - start;
+            // The pass's blocks in parallel, each in sample order from its own stream (the
+            // same for every pixel).
+            let blocks: Vec<u64> = (start..pass_end).step_by(BLOCK as usize).collect();
+            let mut lights: Vec<_> = blocks
+                .par_iter()
+                .map(|&block_start| {
+                    let mut rng = self.stream(SHARED_STREAM, block_start / BLOCK);
+                    let mut lights = Vec::with_capacity(BLOCK as usize);
+                    for k in block_start..(block_start + BLOCK).min(pass_end) {
+                        rng.start(k);
+                        lights.push(self.tracer.trace_light(&mut rng));
+                        // A light subpath can be expensive (HGRS candidates): stay responsive.
+                        if cancel.load(Ordering::Relaxed) {
+                            return Err(NlosError::Interrupted);
+                        }
+                    }
+                    Ok(lights)
+                })
+                .collect::<Result<Vec<_>>>()?
+                .into_iter()
+                .flatten()
+                .collect();
             lights
                 .par_iter_mut()
                 .flatten()
@@ -884,12 +901,15 @@ impl<'a, T: Tracer> Sampling<'a, T> {
                         )
                     },
                     |(values, fixed), (((buf, sum), sq), pixel)| {
-                        // Each pixel's own stream of the block, for its first vertex.
-                        let mut pixel_rng = self.stream(pixel as u64, start / BLOCK);
                         fixed.clear();
                         self.tracer
                             .fixed_contributions(pixel, &mut |s| fixed.push(s));
+                        let mut pixel_rng = self.stream(pixel as u64, start / BLOCK);
                         for (k, light) in (start..).zip(&lights) {
+                            // Each pixel's own stream of the block, for its first vertex.
+                            if k % BLOCK == 0 && k != start {
+                                pixel_rng = self.stream(pixel as u64, k / BLOCK);
+                            }
                             pixel_rng.start(k);
                             for s in fixed.iter() {
                                 self.deposit(s, buf, sum, values.as_mut(), 0);
@@ -915,7 +935,7 @@ impl<'a, T: Tracer> Sampling<'a, T> {
             self.monitor
                 .done
                 .fetch_add(n * pixels.len() as u64, Ordering::Relaxed);
-            start += n;
+            start = pass_end;
         }
         Ok(())
     }
