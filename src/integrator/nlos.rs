@@ -81,7 +81,7 @@ pub struct NlosTracer<'a> {
     /// Scan points and laser spots.
     pub(super) capture: Capture,
     /// Each scan point as a path's first vertex (without a camera).
-    scan_vertices: Vec<Option<Vertex>>,
+    pub(super) scan_vertices: Vec<Option<Vertex>>,
     /// The scan points' bounding box (without a camera).
     pub(super) scan_box: Option<[Vec3A; 2]>,
     /// A perspective camera as the sensor, instead of the scan points.

@@ -302,11 +302,9 @@ impl NlosTracer<'_> {
     /// once per sample. A camera's jittered first vertex is different at each sample: its spot
     /// paths come with [`Self::connect_light`].
     pub(super) fn fixed_contributions(&self, pixel: usize, out: &mut impl FnMut(Splat)) {
-        if self.camera.is_some() {
-            return;
-        }
-        if let Some(x) = self.first_vertex(pixel, &mut Sampler::new(0, 0, 0)) {
-            // (A scan point draws nothing from the stream.)
+        if self.camera.is_none()
+            && let Some(x) = self.scan_vertices[pixel]
+        {
             self.spot_paths(pixel, &x, out);
         }
     }
