@@ -42,11 +42,30 @@ pub fn shares_samples(scene: &Scene) -> bool {
     let s = &n.settings;
     s.sample_reuse
         && (s.capture_type == CaptureType::Single || s.hgrs.is_none())
+        && laser_points(scene, s) <= MAX_LINKED_SPOTS
         && s.laser_sampling
         && s.hidden_geometry_sampling
         && !s.hgs_rroulette
         && s.hgs_max_depth.is_none()
         && !scene.shape_bsdfs(true).iter().any(Bsdf::has_delta)
+}
+
+/// Most laser points an exhaustive capture links to each light subpath: a block of subpaths holds a
+/// link per laser point each (4,096 laser points: about 60 MB per block); beyond, the render
+/// traces one path per scan point, which holds none.
+pub const MAX_LINKED_SPOTS: usize = 4096;
+
+/// The laser points an exhaustive capture links to each light subpath (0 for other captures):
+/// one per scan point with equal illumination scanning, else the film's laser grid.
+fn laser_points(scene: &Scene, s: &crate::settings::NlosSettings) -> usize {
+    let film = &scene.meter.film;
+    match (s.capture_type, film.laser_scan) {
+        (CaptureType::Exhaustive, _) if s.force_equal_illumination_scanning => {
+            film.width * film.height
+        }
+        (CaptureType::Exhaustive, Some((w, h))) => w.saturating_mul(h),
+        _ => 0,
+    }
 }
 
 /// A vertex of a light subpath: the hidden point, the direction towards the previous vertex (the

@@ -153,3 +153,11 @@ def test_reuse_is_on_by_default_and_off_where_it_does_not_apply():
     mirror = z(spp=256)
     mirror["z"]["bsdf"] = {"type": "conductor"}
     assert same(mirror)
+    # More laser points than a block of subpaths can hold links for (4,096): one path per scan point.
+    many = z(width=2, height=2, spp=8, temporal_bins=8, bin_width_opl=0.5, start_opl=1.0, capture_type="exhaustive")
+    film = many["relay_wall"]["nlos_sensor"]["film"]
+    film.update(laser_scan_width=72, laser_scan_height=64)
+    many["integrator"]["force_equal_illumination_scanning"] = False
+    assert same(many)
+    film.update(laser_scan_width=64)
+    assert not same(many)
