@@ -401,56 +401,39 @@ fn render_by(
     pool(opts.threads)?.install(|| {
         with_tracer!(scene, opts, monitor, |tracer| {
             let job = Sampling::new(tracer, plan, monitor);
-            if plan.chunks == 1 && plan.shared {
-                // Every pixel accumulates in place, light sample by light sample: one film.
+            if plan.chunks == 1 {
+                // Each pixel accumulates in place, in sample order (a shared render's pixels
+                // all together, light sample by light sample), then is finished: one film.
                 let (len, c) = (plan.pixel_len, plan.channels);
                 let mut transient = vec![0.0f32; plan.pixels * len];
                 let mut steady = vec![0.0f32; plan.pixels * c];
                 let mut variance = vec![0.0f32; if plan.variance { plan.pixels * len } else { 0 }];
                 let mut sums = vec![[0.0f64; 3]; plan.pixels];
-                let out = RunSums {
-                    transient: &mut transient,
-                    steady: &mut sums,
-                    squares: &mut variance,
-                };
-                job.trace_shared(0..plan.pixels, 0, plan.spp, out)?;
-                let mut sqs = per_task(&mut variance, len, plan.pixels);
-                transient
-                    .par_chunks_mut(len)
-                    .zip(steady.par_chunks_mut(c))
-                    .zip(sqs.par_iter_mut())
-                    .zip(&sums)
-                    .for_each(|(((buf, st), sq), sum)| {
-                        if let Some(sq) = sq.as_deref_mut() {
-                            variance_of_mean(buf, sq, plan.spp);
-                        }
-                        normalise(plan, buf, sum, st, plan.spp);
-                    });
-                drop(sqs);
-                let mut out = rendered(plan, transient, steady);
-                out.variance = plan.variance.then_some(variance);
-                Ok(out)
-            } else if plan.chunks == 1 {
-                // Each pixel accumulates in place, in sample order.
-                let (len, c) = (plan.pixel_len, plan.channels);
-                let mut transient = vec![0.0f32; plan.pixels * len];
-                let mut steady = vec![0.0f32; plan.pixels * c];
-                let mut variance = vec![0.0f32; if plan.variance { plan.pixels * len } else { 0 }];
                 let mut samples = vec![plan.spp; plan.pixels];
+                if plan.shared {
+                    let out = RunSums {
+                        transient: &mut transient,
+                        steady: &mut sums,
+                        squares: &mut variance,
+                    };
+                    job.trace_shared(0..plan.pixels, 0, plan.spp, out)?;
+                }
                 let mut sqs = per_task(&mut variance, len, plan.pixels);
                 transient
                     .par_chunks_mut(len)
                     .zip(steady.par_chunks_mut(c))
                     .zip(samples.par_iter_mut())
                     .zip(sqs.par_iter_mut())
+                    .zip(sums.par_iter_mut())
                     .enumerate()
-                    .try_for_each(|(pixel, (((buf, st), n), sq))| {
-                        let mut sum = [0.0f64; 3];
-                        *n = job.trace(pixel, 0, plan.spp, buf, &mut sum, sq.as_deref_mut())?;
+                    .try_for_each(|(pixel, ((((buf, st), n), sq), sum))| {
+                        if !plan.shared {
+                            *n = job.trace(pixel, 0, plan.spp, buf, sum, sq.as_deref_mut())?;
+                        }
                         if let Some(sq) = sq.as_deref_mut() {
                             variance_of_mean(buf, sq, *n);
                         }
-                        normalise(plan, buf, &sum, st, *n);
+                        normalise(plan, buf, sum, st, *n);
                         Ok(())
                     })?;
                 drop(sqs);
@@ -1046,8 +1029,8 @@ const CHUNK_MEMORY: u64 = 256 << 20;
 /// depends on the capture only, never on the thread count, so results stay bit-identical whatever
 /// the threads: one chunk (the whole pixel in one task, in sample order) for films of
 /// [`MIN_TASKS`] pixels or more; otherwise enough chunks of whole [`BLOCK`]s for [`MIN_TASKS`]
-/// tasks, within [`CHUNK_MEMORY`]. A shared render splits its pixels into runs besides (each run
-/// retraces the light subpaths), which changes no pixel's sums.
+/// tasks, within [`CHUNK_MEMORY`]. A shared render runs its chunks in parallel and, inside each,
+/// its pixels.
 fn chunks_per_pixel(npix: u64, spp: u64, pixel_bytes: u64) -> u64 {
     let blocks = spp.div_ceil(BLOCK);
     let by_memory = (CHUNK_MEMORY / (npix * pixel_bytes).max(1)).max(1);

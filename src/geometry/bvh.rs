@@ -151,32 +151,21 @@ impl Accel {
                 ..hit
             });
         }
-        let mut ray = Self::ray(o, d, tmin, tmax);
         let mut best: Option<Hit> = None;
-        TRAVERSAL.with_borrow_mut(|state| {
-            state.reinit(ray.direction);
-            let mut node;
-            obvhs::traverse!(
-                self.bvh,
-                node,
-                state,
-                node.intersect_ray(&ray, state.oct_inv4),
-                {
-                    let slot = state.primitive_id as usize;
-                    // Closest hit: a candidate is accepted only if it shortens the ray.
-                    if let Some((t, b)) =
-                        self.prims[slot].intersect(ray.origin, ray.direction, ray.tmin, ray.tmax)
-                        && t < ray.tmax
-                    {
-                        ray.tmax = t;
-                        best = Some(Hit {
-                            t,
-                            prim: self.slot_to_prim[slot],
-                            b,
-                        });
-                    }
-                }
-            );
+        self.traverse(Self::ray(o, d, tmin, tmax), |slot, ray| {
+            // Closest hit: a candidate is accepted only if it shortens the ray.
+            if let Some((t, b)) =
+                self.prims[slot].intersect(ray.origin, ray.direction, ray.tmin, ray.tmax)
+                && t < ray.tmax
+            {
+                ray.tmax = t;
+                best = Some(Hit {
+                    t,
+                    prim: self.slot_to_prim[slot],
+                    b,
+                });
+            }
+            false
         });
         best
     }
@@ -208,33 +197,41 @@ impl Accel {
                 .zip(&self.plane)
                 .all(|(p, &k)| on_skipped(k, skip) || p.intersect(o, d, tmin, tmax).is_none());
         }
-        let ray = Self::ray(o, d, tmin, tmax);
+        let mut miss = true;
+        self.traverse(Self::ray(o, d, tmin, tmax), |slot, ray| {
+            // Any hit ends the traversal.
+            miss = on_skipped(self.plane[slot], skip)
+                || self.prims[slot]
+                    .intersect(ray.origin, ray.direction, ray.tmin, ray.tmax)
+                    .is_none_or(|h| h.0 >= ray.tmax);
+            !miss
+        });
+        miss
+    }
+
+    /// Traverse the BVH along `ray` on this thread's reused state, calling `visit(slot, ray)` for
+    /// each candidate primitive in traversal order; `visit` may shorten the ray and returns
+    /// whether to stop.
+    #[inline]
+    fn traverse(&self, mut ray: Ray, mut visit: impl FnMut(usize, &mut Ray) -> bool) {
         TRAVERSAL.with_borrow_mut(|state| {
             state.reinit(ray.direction);
             let mut node;
-            let mut miss = true;
-            // Any hit ends the traversal (out of the macro's loops).
-            'any: {
+            // Out of the macro's loops.
+            'stop: {
                 obvhs::traverse!(
                     self.bvh,
                     node,
                     state,
                     node.intersect_ray(&ray, state.oct_inv4),
                     {
-                        let slot = state.primitive_id as usize;
-                        if !on_skipped(self.plane[slot], skip)
-                            && self.prims[slot]
-                                .intersect(ray.origin, ray.direction, ray.tmin, ray.tmax)
-                                .is_some_and(|h| h.0 < ray.tmax)
-                        {
-                            miss = false;
-                            break 'any;
+                        if visit(state.primitive_id as usize, &mut ray) {
+                            break 'stop;
                         }
                     }
                 );
             }
-            miss
-        })
+        });
     }
 }
 
