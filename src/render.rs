@@ -27,6 +27,10 @@ const SHARED_STREAM: u64 = u64::MAX;
 /// from fewer misses rare bright paths too often).
 pub const ADAPTIVE_MIN_SAMPLES: u64 = 4 * BLOCK;
 
+/// The two-sided 90 % quantile of the standard normal: adaptive sampling stops once a total's
+/// relative error is within `target_rel_error` with 90 % confidence.
+pub const ADAPTIVE_Z: f64 = 1.644_853_626_951_472_2;
+
 /// Options of one render.
 #[derive(Clone, Debug)]
 pub struct RenderOptions {
@@ -287,7 +291,9 @@ impl Plan {
 
     /// Adaptive sampling's stopping rule after `n` samples whose totals have sums `t1` (of the
     /// totals) and `t2` (of their squares): at least [`ADAPTIVE_MIN_SAMPLES`] samples, a positive
-    /// mean, and a standard error of the mean at most `target_rel_error` × the mean.
+    /// mean, and a relative error of at most `target_rel_error` at 90 % confidence — the standard
+    /// error of the mean times [`ADAPTIVE_Z`] at most `target_rel_error` × the mean (normal
+    /// approximation).
     fn precise_enough(&self, n: u64, t1: f64, t2: f64) -> bool {
         let Some(e) = self.target_rel_error else {
             return false;
@@ -298,7 +304,7 @@ impl Plan {
         let nf = n as f64;
         let mean = t1 / nf;
         let s2 = ((t2 - nf * mean * mean) / (nf - 1.0)).max(0.0);
-        (s2 / nf).sqrt() <= e * mean
+        ADAPTIVE_Z * (s2 / nf).sqrt() <= e * mean
     }
 
     /// Samples [first, end) of chunk `k`.

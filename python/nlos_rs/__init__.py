@@ -196,9 +196,9 @@ def render(
 
     ``return_variance=True`` returns ``(steady, transient, variance)``: each transient value's
     variance of the mean, estimated from the per-sample values. ``target_rel_error=e`` samples each
-    scan point in blocks of 256 until the standard error of its total is at most ``e`` times the
-    total (after at least 1024 samples), or ``max_spp`` samples (default: ``spp``, or the scene's
-    ``sample_count``); deterministic for a seed. Both render each scan point in one task.
+    scan point in blocks of 256 until its total's relative error is within ``e`` at 90 % confidence
+    (1.645 standard errors of the mean at most ``e`` times the total, after at least 1024 samples),
+    or ``max_spp`` samples (default: ``spp``, or the scene's ``sample_count``); deterministic for a seed. Both render each scan point in one task.
 
     ``sampler`` overrides the scene's: ``"independent"``, or ``"stratified"``, ``"multijitter"``,
     ``"orthogonal"``, ``"ldsampler"`` — all four draw from one Owen-scrambled Sobol' sequence.

@@ -61,18 +61,23 @@ def test_variance_changes_nothing_else():
     assert v.shape == t.shape and v.sum() > 0
 
 
-def test_target_rel_error_meets_its_standard_error():
-    """Each scan point's total, sampled until its standard error is at most e of it, deviates from a
-    high-spp reference by about e (RMS over points and seeds), on two scenes."""
-    for scene, e in ((z(), 0.05), (nlos_rs.load_file(SIMPLE), 0.1)):
-        ref = nlos_rs.render(scene, spp=1 << 17, progress=False)[0][..., 0]
+def test_target_rel_error_holds_at_90_percent_confidence():
+    """Each scan point's total, sampled until its relative error is within e at 90 % confidence,
+    deviates from a high-spp reference by about e / 1.645 (RMS over points and seeds), and by at most
+    1.3 e on at least 90 % of the points (the issue's "2.6 % on 90 % of points at e = 0.02"), on two
+    scenes."""
+    for scene, e, ref_spp, max_spp in ((z(), 0.02, 1 << 21, 1 << 20),
+                                       (nlos_rs.load_file(SIMPLE), 0.1, 1 << 17, 1 << 16)):
+        ref = nlos_rs.render(scene, spp=ref_spp, progress=False)[0][..., 0]
         lit = ref > 0
-        rel = np.array([nlos_rs.render(scene, seed=100 + s, target_rel_error=e, max_spp=1 << 15,
+        rel = np.array([nlos_rs.render(scene, seed=100 + s, target_rel_error=e, max_spp=max_spp,
                                        progress=False)[0][..., 0][lit] / ref[lit] - 1 for s in range(4)])
         rms = np.sqrt(np.mean(rel**2)) / e
         within = np.mean(np.abs(rel) <= 1.3 * e)
-        print(f"\ne={e}: RMS error {rms:.3f} e; {within:.1%} of points within 1.3 e")
-        assert 0.8 <= rms <= 1.1
+        print(f"\ne={e}: RMS error {rms:.3f} e; {within:.1%} of points within 1.3 e; "
+              f"{np.mean(np.abs(rel) <= e):.1%} within e")
+        assert 0.45 <= rms <= 0.75
+        assert within >= 0.9
 
 
 def test_target_rel_error_is_deterministic_and_adapts():
