@@ -17,6 +17,7 @@ use std::collections::HashMap;
 use std::path::PathBuf;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc::RecvTimeoutError;
 use std::time::Duration;
 
 create_exception!(
@@ -45,8 +46,9 @@ fn short(s: &str) -> String {
     }
 }
 
-/// Run `work` on its own thread with the GIL released, polling Ctrl-C (and `tick`) every
-/// 100 ms; on an error from Python the shared cancel flag is set and the work stops soon after.
+/// Run `work` on its own thread with the GIL released, waiting for its result while polling
+/// Ctrl-C (and `tick`) every 100 ms; on an error from Python the shared cancel flag is set and the
+/// work stops soon after.
 fn interruptible<T: Send>(
     py: Python<'_>,
     cancel: &AtomicBool,
@@ -54,29 +56,40 @@ fn interruptible<T: Send>(
     mut tick: impl FnMut() -> PyResult<()>,
 ) -> PyResult<T> {
     std::thread::scope(|s| {
-        let job = s.spawn(work);
+        // The result comes back over a channel, so the wait ends the moment the work does.
+        let (tx, mut rx) = std::sync::mpsc::sync_channel(1);
+        let job = s.spawn(move || {
+            let _ = tx.send(work());
+        });
         let stop = |e: PyErr| {
             cancel.store(true, Ordering::Relaxed);
             e
         };
         loop {
-            let finished = py.detach(|| {
-                for _ in 0..10 {
-                    if job.is_finished() {
-                        return true;
-                    }
-                    std::thread::sleep(Duration::from_millis(10));
-                }
-                job.is_finished()
+            // (A receiver may move between threads but not be shared: it goes and comes back.)
+            let got;
+            (rx, got) = py.detach(move || {
+                let got = rx.recv_timeout(Duration::from_millis(100));
+                (rx, got)
             });
-            tick().map_err(stop)?;
-            if finished {
-                break;
+            match got {
+                Ok(result) => {
+                    tick().map_err(stop)?;
+                    return result;
+                }
+                Err(RecvTimeoutError::Timeout) => {
+                    tick().map_err(stop)?;
+                    py.check_signals().map_err(stop)?;
+                }
+                // The worker dropped its sender without sending: it panicked.
+                Err(RecvTimeoutError::Disconnected) => {
+                    let _ = job.join();
+                    return Err(SceneError::new_err(
+                        "worker thread panicked (please report it)",
+                    ));
+                }
             }
-            py.check_signals().map_err(stop)?;
         }
-        job.join()
-            .map_err(|_| SceneError::new_err("worker thread panicked (please report it)"))?
     })
 }
 
