@@ -161,6 +161,79 @@ fn matches_brute_force() {
 }
 
 #[test]
+fn axis_plane_rays_match_brute_force() {
+    // Rays in the planes of box faces (scan rays in a scene's symmetry planes, a laser aimed
+    // straight at a wall) on an axis-aligned scene: a wall of quads on a 0.25 grid and a box.
+    let mut prims = Vec::new();
+    let quad = |prims: &mut Vec<Prim>, c: [Vec3A; 4]| {
+        prims.push(Prim::triangle([c[0], c[1], c[2]]));
+        prims.push(Prim::triangle([c[0], c[2], c[3]]));
+    };
+    for i in 0..8 {
+        for j in 0..8 {
+            let (x, y) = (-1.0 + 0.25 * i as f32, -1.0 + 0.25 * j as f32);
+            quad(
+                &mut prims,
+                [
+                    Vec3A::new(x, y, 0.0),
+                    Vec3A::new(x + 0.25, y, 0.0),
+                    Vec3A::new(x + 0.25, y + 0.25, 0.0),
+                    Vec3A::new(x, y + 0.25, 0.0),
+                ],
+            );
+        }
+    }
+    for z in [0.5f32, 1.0] {
+        quad(
+            &mut prims,
+            [
+                Vec3A::new(-0.25, -0.25, z),
+                Vec3A::new(0.25, -0.25, z),
+                Vec3A::new(0.25, 0.25, z),
+                Vec3A::new(-0.25, 0.25, z),
+            ],
+        );
+    }
+    let accel = build(&prims);
+    let mut rng = Sampler::new(11, 12, 13);
+    let (mut tested, mut hits) = (0, 0);
+    for _ in 0..4000 {
+        // An origin on grid lines, in front of the wall; a direction with one or two zero
+        // components (±0.0 both).
+        let grid = |u: f32| -1.0 + 0.25 * (u * 9.0).floor();
+        let o = Vec3A::new(
+            grid(rng.next_1d()),
+            grid(rng.next_1d()),
+            -0.5 + 2.0 * rng.next_1d(),
+        );
+        let mut d = square_to_uniform_sphere(rng.next_2d());
+        let zero = (rng.next_1d() * 6.0) as usize;
+        for a in 0..3 {
+            if a == zero % 3 || (zero >= 3 && a == (zero + 1) % 3) {
+                d[a] = if rng.next_1d() < 0.5 { 0.0 } else { -0.0 };
+            }
+        }
+        let Some(d) = d.try_normalize() else { continue };
+        tested += 1;
+        let a = accel.intersect(o, d, 0.0, f32::INFINITY);
+        let b = intersect_brute(&prims, o, d, 0.0, f32::INFINITY);
+        match (a, b) {
+            (Some(a), Some(b)) => {
+                assert!((a.t - b.t).abs() <= 1e-5 * b.t.max(1.0), "{a:?} vs {b:?}");
+                hits += 1;
+            }
+            (None, None) => {}
+            _ => panic!("BVH and brute force disagree on {o:?} + t {d:?}: {a:?} vs {b:?}"),
+        }
+        assert_eq!(
+            accel.unoccluded(o, d, 0.0, 1.5, NONE),
+            intersect_brute(&prims, o, d, 0.0, 1.5).is_none()
+        );
+    }
+    assert!(tested > 3000 && hits > 500, "{tested} rays, {hits} hits");
+}
+
+#[test]
 fn analytic_primitives() {
     let s = Prim::Sphere {
         center: Vec3A::new(0.0, 0.0, 5.0),

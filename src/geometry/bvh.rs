@@ -1,11 +1,13 @@
 //! The one module that talks to obvhs (0.4). It guards against three behaviours of that crate:
 //! directions are canonicalised so that no component is
 //! `-0.0` (CwBvh would miss such rays), hits use our watertight primitive tests instead of obvhs'
-//! Möller–Trumbore ones (which leak through shared edges), and rays (nearly) parallel to an axis plane are
-//! traced by brute force: obvhs' node test clamps the entry distance to 1e-4, so it culls a box
-//! whose face contains such a ray (a scan ray in a symmetry plane of the scene). Padding the boxes
-//! instead would cost every ray: CwBvh quantises child boxes outwards, turning a flat relay wall
-//! into a slab that every shadow ray towards the wall enters.
+//! Möller–Trumbore ones (which leak through shared edges), and rays (nearly) parallel to an axis
+//! plane do not use obvhs' ray–node test: it clamps the entry distance to 1e-4, so it culls a box
+//! whose face contains such a ray (a scan ray in a symmetry plane of the scene). Such a ray visits
+//! instead every node whose box overlaps the bounding box of its segment (clipped to the scene):
+//! conservative, and few nodes for a ray along an axis (a laser aimed straight at a wall).
+//! Padding the boxes instead would cost every ray: CwBvh quantises child boxes outwards, turning a
+//! flat relay wall into a slab that every shadow ray towards the wall enters.
 
 use super::{Hit, Prim};
 use glam::{UVec2, Vec3A};
@@ -32,8 +34,9 @@ impl Boundable for Prim {
 }
 
 /// Is the (unit) direction parallel, to within rounding, to an axis plane? A ray starting on a
-/// box face with such a direction can be culled by obvhs' node test although it hits a primitive in
-/// the box; random directions are this close with probability ~3e-6, scan rays in symmetry planes always.
+/// box face with such a direction can be culled by obvhs' ray–node test although it hits a
+/// primitive in the box; random directions are this close with probability ~3e-6, scan rays in
+/// symmetry planes always.
 #[inline]
 fn near_axis_plane(d: Vec3A) -> bool {
     d.abs().min_element() < 1e-6
@@ -53,6 +56,8 @@ pub struct Accel {
     planar: Vec<bool>,
     /// Per shape: its number of primitives.
     shape_prims: Vec<u32>,
+    /// Bounds of every primitive (where an unbounded ray's segment ends).
+    bounds: Aabb,
 }
 
 /// The plane key of a primitive on no shared plane.
@@ -115,6 +120,7 @@ impl Accel {
         for &s in prim_shape {
             shape_prims[s as usize] += 1;
         }
+        let bounds = prims.iter().fold(Aabb::empty(), |b, p| b.union(&p.aabb()));
         let prims = slot_to_prim.iter().map(|&i| prims[i as usize]).collect();
         Self {
             bvh,
@@ -123,6 +129,7 @@ impl Accel {
             plane,
             planar,
             shape_prims,
+            bounds,
         }
     }
 
@@ -143,13 +150,6 @@ impl Accel {
     pub fn intersect(&self, o: Vec3A, d: Vec3A, tmin: f32, tmax: f32) -> Option<Hit> {
         if self.prims.is_empty() {
             return None;
-        }
-        if near_axis_plane(d) {
-            let hit = intersect_brute(&self.prims, o, d, tmin, tmax)?;
-            return Some(Hit {
-                prim: self.slot_to_prim[hit.prim as usize],
-                ..hit
-            });
         }
         let mut best: Option<Hit> = None;
         self.traverse(Self::ray(o, d, tmin, tmax), |slot, ray| {
@@ -190,13 +190,6 @@ impl Accel {
         if self.prims.len() == skipped {
             return true;
         }
-        if near_axis_plane(d) {
-            return self
-                .prims
-                .iter()
-                .zip(&self.plane)
-                .all(|(p, &k)| on_skipped(k, skip) || p.intersect(o, d, tmin, tmax).is_none());
-        }
         let mut miss = true;
         self.traverse(Self::ray(o, d, tmin, tmax), |slot, ray| {
             // Any hit ends the traversal.
@@ -211,9 +204,10 @@ impl Accel {
 
     /// Traverse the BVH along `ray` on this thread's reused state, calling `visit(slot, ray)` for
     /// each candidate primitive in traversal order; `visit` may shorten the ray and returns
-    /// whether to stop.
+    /// whether to stop. A ray near an axis plane visits the nodes its segment's box overlaps.
     #[inline]
     fn traverse(&self, mut ray: Ray, mut visit: impl FnMut(usize, &mut Ray) -> bool) {
+        let segment = near_axis_plane(ray.direction).then(|| self.segment_box(&ray));
         TRAVERSAL.with_borrow_mut(|state| {
             state.reinit(ray.direction);
             let mut node;
@@ -223,7 +217,10 @@ impl Accel {
                     self.bvh,
                     node,
                     state,
-                    node.intersect_ray(&ray, state.oct_inv4),
+                    match &segment {
+                        Some(b) => node.intersect_aabb(b, state.oct_inv4),
+                        None => node.intersect_ray(&ray, state.oct_inv4),
+                    },
                     {
                         if visit(state.primitive_id as usize, &mut ray) {
                             break 'stop;
@@ -232,6 +229,28 @@ impl Accel {
                 );
             }
         });
+    }
+
+    /// The bounding box of the segment of `ray` inside the scene's bounds, padded by rounding: it
+    /// overlaps the box of every primitive the segment meets.
+    fn segment_box(&self, ray: &Ray) -> Aabb {
+        let (o, d) = (ray.origin, ray.direction);
+        // Where the ray leaves the scene's bounds, along the axes it moves on.
+        let exit = (0..3)
+            .filter(|&a| d[a] != 0.0)
+            .map(|a| {
+                let far = if d[a] > 0.0 {
+                    self.bounds.max[a]
+                } else {
+                    self.bounds.min[a]
+                };
+                (far - o[a]) / d[a]
+            })
+            .fold(ray.tmax, f32::min)
+            .max(ray.tmin);
+        let (a, b) = (o + ray.tmin * d, o + exit * d);
+        let pad = 1e-5 * (1.0 + a.abs().max(b.abs()).max_element());
+        Aabb::new(a.min(b) - pad, a.max(b) + pad)
     }
 }
 
