@@ -89,7 +89,7 @@ pub struct NlosTracer<'a> {
     /// Set by the caller to stop the render.
     pub(super) cancel: &'a AtomicBool,
     /// Hidden-geometry distribution, if that sampling is on.
-    pub(super) hidden: Option<AreaSampler>,
+    pub(super) hidden: Option<&'a AreaSampler>,
 }
 
 impl<'a> NlosTracer<'a> {
@@ -99,20 +99,16 @@ impl<'a> NlosTracer<'a> {
         let nlos = scene.nlos()?;
         let settings = &nlos.settings;
         let hidden = if settings.hidden_geometry_sampling {
-            // Every shape but the relay wall (unless included) is hidden geometry (mitransient-model §3.1).
-            // With a camera there is no relay-wall shape: every shape is hidden geometry.
-            let wall = nlos.relay_wall;
             Some(
-                AreaSampler::new(scene, |s| {
-                    settings.hgs_includes_relay_wall || Some(s) != wall
-                })
-                .ok_or_else(|| {
-                    NlosError::prop(
-                        "transient_nlos_path",
-                        "nlos_hidden_geometry_sampling",
-                        "the scene has no hidden geometry to sample (zero total area)",
-                    )
-                })?,
+                scene
+                    .hidden_geometry(settings.hgs_includes_relay_wall)
+                    .ok_or_else(|| {
+                        NlosError::prop(
+                            "transient_nlos_path",
+                            "nlos_hidden_geometry_sampling",
+                            "the scene has no hidden geometry to sample (zero total area)",
+                        )
+                    })?,
             )
         } else {
             None

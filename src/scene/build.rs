@@ -549,6 +549,7 @@ impl Scene {
             accel,
             meter,
             setup,
+            hidden: Default::default(),
         })
     }
 }

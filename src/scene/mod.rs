@@ -99,6 +99,9 @@ pub struct Scene {
     pub meter: Meter,
     /// NLOS capture or line-of-sight camera.
     pub setup: Setup,
+    /// Area sampling over the hidden geometry without and with the relay wall, built on first
+    /// use and kept for later renders ([`Scene::hidden_geometry`]).
+    pub hidden: [std::sync::OnceLock<Option<std::sync::Arc<AreaSampler>>>; 2],
 }
 
 impl Scene {
@@ -110,6 +113,19 @@ impl Scene {
                 "this is a line-of-sight (transient_path) scene, not an NLOS capture".into(),
             )),
         }
+    }
+
+    /// Uniform area sampling over the hidden geometry of an NLOS scene: every shape but the relay
+    /// wall (mitransient-model §3.1), or every shape `with_wall` (and with a camera, which has
+    /// no relay-wall shape). `None` if that has no area. Its tables take a pass over every
+    /// primitive, so they are built once per scene, not per render.
+    pub fn hidden_geometry(&self, with_wall: bool) -> Option<&AreaSampler> {
+        self.hidden[with_wall as usize]
+            .get_or_init(|| {
+                let wall = self.nlos().ok().and_then(|n| n.relay_wall);
+                AreaSampler::new(self, |s| with_wall || Some(s) != wall).map(std::sync::Arc::new)
+            })
+            .as_deref()
     }
 
     /// Each shape's BSDF resolved for a mono or rgb render, indexed by shape.
