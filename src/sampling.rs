@@ -175,12 +175,29 @@ pub fn square_to_uniform_disk_concentric(u: Vec2) -> Vec2 {
     if x == 0.0 && y == 0.0 {
         return Vec2::ZERO;
     }
-    let (r, phi) = if x.abs() > y.abs() {
-        (x, PI / 4.0 * (y / x))
+    // The angle is π/4 · (y/x) in the wedges around ±x, π/2 − π/4 · (x/y) around ±y: a quarter
+    // angle θ in [−π/4, π/4] either way, and cos(π/2 − θ) = sin θ.
+    if x.abs() > y.abs() {
+        let (s, c) = sin_cos_quarter(PI / 4.0 * (y / x));
+        Vec2::new(x * c, x * s)
     } else {
-        (y, PI / 2.0 - PI / 4.0 * (x / y))
-    };
-    Vec2::new(r * phi.cos(), r * phi.sin())
+        let (s, c) = sin_cos_quarter(PI / 4.0 * (x / y));
+        Vec2::new(y * s, y * c)
+    }
+}
+
+/// (sin θ, cos θ) for |θ| ≤ π/4 from their Taylor polynomials to θ⁹ and θ⁸ (truncation error
+/// below 3e-8, under f32 rounding): libm's general `sincosf` took a quarter of a line-of-sight
+/// render's time in cosine-weighted sampling.
+#[inline]
+pub fn sin_cos_quarter(t: f32) -> (f32, f32) {
+    let t2 = t * t;
+    let s = t
+        * (1.0
+            + t2 * (-1.0 / 6.0
+                + t2 * (1.0 / 120.0 + t2 * (-1.0 / 5040.0 + t2 * (1.0 / 362_880.0)))));
+    let c = 1.0 + t2 * (-0.5 + t2 * (1.0 / 24.0 + t2 * (-1.0 / 720.0 + t2 * (1.0 / 40_320.0))));
+    (s, c)
 }
 
 /// Density of [`square_to_uniform_disk_concentric`] (area).

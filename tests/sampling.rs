@@ -167,3 +167,18 @@ fn low_discrepancy_pairs_are_stratified_and_draws_uniform() {
         "scrambled draws are uniform"
     );
 }
+
+#[test]
+fn quarter_angle_sin_cos_matches_libm() {
+    // Over [-π/4, π/4], within 2 f32 ulps of 1 of the f64 values.
+    let q = std::f64::consts::FRAC_PI_4;
+    let worst = (0..=100_000)
+        .map(|i| {
+            let t = (-q + 2.0 * q * i as f64 / 100_000.0) as f32;
+            let (s, c) = nlos_rs::sampling::sin_cos_quarter(t);
+            let (s64, c64) = (t as f64).sin_cos();
+            (s as f64 - s64).abs().max((c as f64 - c64).abs())
+        })
+        .fold(0.0f64, f64::max);
+    assert!(worst < 1.2e-7, "worst error {worst:e}");
+}
