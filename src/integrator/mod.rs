@@ -9,6 +9,7 @@ pub mod hgrs;
 pub mod nlos;
 pub mod path;
 pub mod sample_reuse;
+pub mod visibility_guide;
 
 pub use nlos::NlosTracer;
 pub use path::PathTracer;

@@ -8,6 +8,7 @@
 //! instead: hidden-geometry sampling tests visibility, the 50/50 technique choice does not double
 //! the estimate, and the capture's time origin ignores the shutter. See docs/compatibility.md.
 
+use super::visibility_guide::Guide;
 use super::{Splat, Step, Tracer, Vertex, hgrs, russian_roulette};
 use crate::bsdf::Bsdf;
 use crate::capture::{Capture, Spot};
@@ -90,12 +91,20 @@ pub struct NlosTracer<'a> {
     pub(super) cancel: &'a AtomicBool,
     /// Hidden-geometry distribution, if that sampling is on.
     pub(super) hidden: Option<&'a AreaSampler>,
+    /// The distribution of a shared light subpath's first hidden vertex, if guided.
+    pub(super) guide: Option<Guide>,
 }
 
 impl<'a> NlosTracer<'a> {
     /// Prepare a render of `scene` in mono or rgb; `cancel` stops the preparation and long
-    /// per-sample loops (an exhaustive capture's laser points) early.
-    pub fn new(scene: &'a Scene, mono: bool, cancel: &'a AtomicBool) -> Result<Self> {
+    /// per-sample loops (an exhaustive capture's laser points) early. `shared_spp`: the render
+    /// shares this many light subpaths among its scan points (it then learns their guide).
+    pub fn new(
+        scene: &'a Scene,
+        mono: bool,
+        cancel: &'a AtomicBool,
+        shared_spp: Option<u64>,
+    ) -> Result<Self> {
         let nlos = scene.nlos()?;
         let settings = &nlos.settings;
         let hidden = if settings.hidden_geometry_sampling {
@@ -115,7 +124,7 @@ impl<'a> NlosTracer<'a> {
         };
         let bsdfs = scene.shape_bsdfs(mono);
         let capture = Capture::new(scene, mono, cancel)?;
-        Ok(Self {
+        let mut tracer = Self {
             scene,
             settings,
             laser: &nlos.laser,
@@ -144,7 +153,16 @@ impl<'a> NlosTracer<'a> {
             camera: nlos.camera.as_ref(),
             cancel,
             hidden,
-        })
+            guide: None,
+        };
+        // The guide's pilot: a quarter of the render's light subpaths, 256 to 4,096 points.
+        if let (Some(spp), Some(hg)) = (shared_spp, hidden)
+            && settings.visibility_guiding
+            && settings.hgrs.is_none()
+        {
+            tracer.guide = Guide::learn(&tracer, hg, (spp / 4).clamp(256, 4096) as usize);
+        }
+        Ok(tracer)
     }
 
     #[inline]

@@ -25,7 +25,7 @@ use crate::capture::Spot;
 use crate::geometry::Interaction;
 use crate::math::Spectrum;
 use crate::sampling::Sampler;
-use crate::scene::{Scene, Setup};
+use crate::scene::{AreaSampler, Scene, Setup};
 use crate::settings::CaptureType;
 use glam::Vec3A;
 use std::sync::atomic::Ordering;
@@ -142,7 +142,7 @@ impl NlosTracer<'_> {
                 return None;
             }
             let first = step(rng, &mut |rng| {
-                let y = hg.sample(self.scene, rng);
+                let (y, inv_density) = self.first_hidden_vertex(hg, rng);
                 let u = spot.it.p - y.p;
                 let r2 = u.length_squared();
                 let r = r2.sqrt();
@@ -154,7 +154,7 @@ impl NlosTracer<'_> {
                 Some(Step {
                     next: y,
                     dist: r,
-                    weight: self.spot_radiance(spot, w)? * (area * cos_z / r2),
+                    weight: self.spot_radiance(spot, w)? * (inv_density * cos_z / r2),
                     eta: 1.0,
                 })
             })?;
@@ -162,11 +162,11 @@ impl NlosTracer<'_> {
             let opl = first.dist as f64 + spot.last_leg;
             (first, Some(to_light), opl)
         } else {
-            let y = hg.sample(self.scene, rng);
+            let (y, inv_density) = self.first_hidden_vertex(hg, rng);
             let first = Step {
                 next: y,
                 dist: 0.0,
-                weight: Spectrum::splat(area),
+                weight: Spectrum::splat(inv_density),
                 eta: 1.0,
             };
             (first, None, 0.0)
@@ -238,6 +238,16 @@ impl NlosTracer<'_> {
         Some(path)
     }
 
+    /// A subpath's first hidden vertex and its inverse area density: from the visibility guide
+    /// if there is one, else uniform (density 1/A).
+    #[inline]
+    fn first_hidden_vertex(&self, hg: &AreaSampler, rng: &mut Sampler) -> (Interaction, f32) {
+        match &self.guide {
+            Some(guide) => guide.sample(hg, self.scene, rng),
+            None => (hg.sample(self.scene, rng), hg.total_area()),
+        }
+    }
+
     /// An exhaustive capture's laser grid: every spot's link to the subpath's first vertex,
     /// shared by all scan points.
     pub(super) fn link_light(&self, path: &mut LightPath) {
@@ -277,6 +287,24 @@ impl NlosTracer<'_> {
                 y.ns.dot(u) > -1e-5 * u.length()
             })
         })
+    }
+
+    /// Whether laser spot `spot` lights the hidden point `y`: faces it, unoccluded, sends light
+    /// its way, and y's BSDF reflects that light.
+    pub(super) fn spot_lights(&self, y: &Interaction, spot: &Spot) -> bool {
+        let Some(link) = self.spot_link(y, None, spot, true) else {
+            return false;
+        };
+        // Light from the spot's side must be able to leave y on that side (a one-sided BSDF lit
+        // from behind sends nothing on).
+        let out = if y.ns.dot(link.to_spot) > 0.0 {
+            y.ns
+        } else {
+            -y.ns
+        };
+        self.bsdf(y)
+            .eval(y.ns, link.to_spot, out)
+            .is_some_and(|f| f != Spectrum::ZERO)
     }
 
     /// Laser spot `spot` lighting the first vertex `y` of a subpath that goes on along `out`: the

@@ -79,25 +79,53 @@ impl AreaSampler {
     /// coordinate inside it (a stratified pair stays stratified over the whole area).
     #[inline]
     pub fn sample(&self, scene: &Scene, rng: &mut Sampler) -> Interaction {
+        self.sample_with(&self.dist, scene, rng).0
+    }
+
+    /// A point drawn as [`Self::sample`] does, but with the primitives picked by `dist` (over
+    /// [`Self::areas`]' indices) instead of by area; with the primitive's index.
+    #[inline]
+    pub fn sample_with(
+        &self,
+        dist: &Discrete,
+        scene: &Scene,
+        rng: &mut Sampler,
+    ) -> (Interaction, usize) {
         let (x, y) = rng.next_pair();
-        let (i, rest) = self.dist.sample(x);
-        let e = &self.entries[i];
+        let (k, rest) = dist.sample(x);
+        let e = &self.entries[k];
         let u = Vec2::new(rest, unit(y));
         if e.n[3] == 0.0 {
             let i = e.v0[3].to_bits() as usize;
             let (p, ng, b) = scene.prims[i].sample_area(u);
-            return scene.surface_point(i, p, ng, b);
+            return (scene.surface_point(i, p, ng, b), k);
         }
         // As `Prim::sample_area` and `Scene::surface_point` without vertex normals: ns = ng.
         let xyz = |a: &[f32; 4]| Vec3A::new(a[0], a[1], a[2]);
         let b = square_to_uniform_triangle(u);
         let p = xyz(&e.v0) * (1.0 - b.x - b.y) + xyz(&e.v1) * b.x + xyz(&e.v2) * b.y;
         let ng = xyz(&e.n) * e.v2[3];
-        Interaction {
+        let it = Interaction {
             p,
             ng,
             ns: ng,
             shape: e.v1[3].to_bits(),
-        }
+        };
+        (it, k)
+    }
+
+    /// The distribution by area over the primitives (for [`Self::sample_with`]).
+    pub fn distribution(&self) -> &Discrete {
+        &self.dist
+    }
+
+    /// The sampled primitives' areas and shapes, in the order [`Self::sample_with`] indexes them.
+    pub fn areas(&self) -> impl Iterator<Item = (f64, u32)> + '_ {
+        (0..self.entries.len()).map(|k| {
+            (
+                self.dist.pmf(k) * self.dist.total(),
+                self.entries[k].v1[3].to_bits(),
+            )
+        })
     }
 }

@@ -107,6 +107,10 @@ pub struct NlosSettings {
     /// allows it (`integrator/sample_reuse.rs` says where); off renders one path per scan point,
     /// as mitransient does.
     pub sample_reuse: bool,
+    /// `nlos_visibility_guiding`: a shared light subpath's first hidden vertex is drawn from a
+    /// distribution learnt from laser-spot visibility, mixed with the uniform one
+    /// (`integrator/visibility_guide.rs`).
+    pub visibility_guiding: bool,
 }
 
 impl NlosSettings {
@@ -183,6 +187,7 @@ impl NlosSettings {
             hgrs,
             temporal_kernel,
             sample_reuse: p.bool("nlos_sample_reuse", true)?,
+            visibility_guiding: p.bool("nlos_visibility_guiding", true)?,
         };
         p.finish()?;
         if s.hgrs.is_some() && !s.hidden_geometry_sampling {

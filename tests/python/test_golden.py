@@ -42,6 +42,12 @@ CASES = {
     "kde_epanechnikov_per_point": lambda: (_z(capture_type="confocal", nlos_sample_reuse=False),
                                            {"kernel_bandwidth": 2.5}),
     "single_sobol": lambda: (_z(), {"sampler": "stratified"}),
+    # Shared subpaths with a uniform first hidden vertex (nlos_visibility_guiding=False): the
+    # digests "single", "confocal" and "two_corners" had before the guide existed.
+    "single_unguided": lambda: (_z(nlos_visibility_guiding=False), {}),
+    "confocal_unguided": lambda: (_z(capture_type="confocal", nlos_visibility_guiding=False), {}),
+    "two_corners_unguided": lambda: (scenes.t_nlos_2corner("small", width=4, height=4, spp=128, temporal_bins=200,
+                                                           bin_width_opl=0.04, nlos_visibility_guiding=False), {}),
     "confocal": lambda: (_z(capture_type="confocal"), {}),
     "exhaustive": lambda: (scenes.z_nlos_1corner(width=3, height=3, spp=64, temporal_bins=80, bin_width_opl=0.03,
                                                  capture_type="exhaustive"), {}),
