@@ -78,6 +78,43 @@ fn load(p: &Props) -> Scene {
     Scene::from_props(p, Path::new(".")).expect("valid scene")
 }
 
+/// Each scan point's total (steady value), per seed of `seeds`, at `spp`.
+fn totals(scene: &Scene, spp: u64, seeds: std::ops::Range<u64>) -> Vec<Vec<f64>> {
+    seeds
+        .map(|seed| {
+            let opts = RenderOptions {
+                spp: Some(spp),
+                seed,
+                ..Default::default()
+            };
+            let r = render(scene, &opts, &Monitor::default()).expect("render");
+            r.steady.iter().map(|&v| v as f64).collect()
+        })
+        .collect()
+}
+
+/// Assert that two estimators' totals (per seed, per scan point) agree at every scan point (Welch
+/// t, |t| < 4.5, and a positive mean); return the sums over scan points of each mean's variance.
+fn agree(a: &[Vec<f64>], b: &[Vec<f64>]) -> (f64, f64) {
+    let mean_and_variance = |x: &[Vec<f64>], p: usize| {
+        let n = x.len() as f64;
+        let m = x.iter().map(|r| r[p]).sum::<f64>() / n;
+        let v = x.iter().map(|r| (r[p] - m).powi(2)).sum::<f64>() / (n - 1.0);
+        (m, v / n)
+    };
+    let (mut var_a, mut var_b) = (0.0, 0.0);
+    for p in 0..a[0].len() {
+        let ((ma, va), (mb, vb)) = (mean_and_variance(a, p), mean_and_variance(b, p));
+        let t = (ma - mb) / (va + vb).sqrt();
+        assert!(
+            ma > 0.0 && t.abs() < 4.5,
+            "pixel {p}: {ma} vs {mb}, t = {t}"
+        );
+        (var_a, var_b) = (var_a + va, var_b + vb);
+    }
+    (var_a, var_b)
+}
+
 #[test]
 fn hidden_geometry_sampling_is_uniform_by_area() {
     let scene = load(&scene_props(vec![], vec![]));
@@ -288,38 +325,11 @@ fn sample_reuse_agrees_with_one_path_per_scan_point() {
     ));
     assert!(nlos_rs::integrator::shares_samples(&shared));
     assert!(!nlos_rs::integrator::shares_samples(&per_point));
-    let totals = |scene: &Scene, first_seed: u64| -> Vec<Vec<f64>> {
-        (0..12)
-            .map(|k| {
-                let r = render(
-                    scene,
-                    &RenderOptions {
-                        spp: Some(4096),
-                        seed: first_seed + k,
-                        ..Default::default()
-                    },
-                    &Monitor::default(),
-                )
-                .expect("render");
-                r.steady.iter().map(|&v| v as f64).collect()
-            })
-            .collect()
-    };
-    let (a, b) = (totals(&shared, 0), totals(&per_point, 100));
-    let stats = |x: &[Vec<f64>], p: usize| {
-        let n = x.len() as f64;
-        let m = x.iter().map(|r| r[p]).sum::<f64>() / n;
-        let v = x.iter().map(|r| (r[p] - m).powi(2)).sum::<f64>() / (n - 1.0);
-        (m, v / n)
-    };
-    for p in 0..16 {
-        let ((ma, va), (mb, vb)) = (stats(&a, p), stats(&b, p));
-        let t = (ma - mb) / (va + vb).sqrt();
-        assert!(
-            ma > 0.0 && t.abs() < 4.5,
-            "pixel {p}: {ma} vs {mb}, t = {t}"
-        );
-    }
+    let (a, b) = (
+        totals(&shared, 4096, 0..12),
+        totals(&per_point, 4096, 100..112),
+    );
+    agree(&a, &b);
 }
 
 #[test]
@@ -365,40 +375,11 @@ fn visibility_guide_agrees_and_spends_less_on_unlit_geometry() {
         .unwrap();
         load(&p)
     };
-    let totals = |scene: &Scene, first_seed: u64| -> Vec<Vec<f64>> {
-        (0..32)
-            .map(|k| {
-                let r = render(
-                    scene,
-                    &RenderOptions {
-                        spp: Some(1024),
-                        seed: first_seed + k,
-                        ..Default::default()
-                    },
-                    &Monitor::default(),
-                )
-                .expect("render");
-                r.steady.iter().map(|&v| v as f64).collect()
-            })
-            .collect()
-    };
-    let (a, b) = (totals(&with_back(true), 0), totals(&with_back(false), 100));
-    let stats = |x: &[Vec<f64>], p: usize| {
-        let n = x.len() as f64;
-        let m = x.iter().map(|r| r[p]).sum::<f64>() / n;
-        let v = x.iter().map(|r| (r[p] - m).powi(2)).sum::<f64>() / (n - 1.0);
-        (m, v / n)
-    };
-    let (mut var_a, mut var_b) = (0.0, 0.0);
-    for p in 0..16 {
-        let ((ma, va), (mb, vb)) = (stats(&a, p), stats(&b, p));
-        let t = (ma - mb) / (va + vb).sqrt();
-        assert!(
-            ma > 0.0 && t.abs() < 4.5,
-            "pixel {p}: {ma} vs {mb}, t = {t}"
-        );
-        (var_a, var_b) = (var_a + va, var_b + vb);
-    }
+    let (a, b) = (
+        totals(&with_back(true), 1024, 0..32),
+        totals(&with_back(false), 1024, 100..132),
+    );
+    let (var_a, var_b) = agree(&a, &b);
     println!(
         "variance of the mean, uniform / guided: {:.2}",
         var_b / var_a
