@@ -815,6 +815,10 @@ impl<'a, T: Tracer> Sampling<'a, T> {
         // Moments of the per-sample totals, for adaptive sampling.
         let (mut t1, mut t2) = (0.0f64, 0.0f64);
         let cancel = &self.monitor.cancel;
+        // The paths every sample adds unchanged, traced once.
+        let mut fixed = Vec::new();
+        self.tracer
+            .fixed_contributions(pixel, &mut |s| fixed.push(s));
         let mut start = first;
         while start < end {
             if cancel.load(Ordering::Relaxed) {
@@ -825,6 +829,9 @@ impl<'a, T: Tracer> Sampling<'a, T> {
             for k in start..start + n {
                 rng.start(k);
                 let mut total = 0.0f64;
+                for s in &fixed {
+                    total += self.deposit(s, buf, sum, values.as_mut(), 0);
+                }
                 self.tracer.trace(pixel, &mut rng, &mut |s: Splat| {
                     total += self.deposit(&s, buf, sum, values.as_mut(), 0);
                 });

@@ -94,9 +94,9 @@ pub trait Tracer: Sync {
     /// links to every laser point); called in parallel over a block's subpaths.
     fn link_light(&self, _light: &mut Self::Light) {}
 
-    /// The contributions every light sample adds to `pixel` unchanged, passed to `out` once: the
-    /// paths that use no light subpath when the pixel's first vertex takes no randomness.
-    /// [`Self::connect_light`] leaves out what this passes.
+    /// The contributions every sample (a path, or a light sample) adds to `pixel` unchanged,
+    /// passed to `out` once: the paths that take no randomness when the pixel's first vertex
+    /// takes none. [`Self::trace`] and [`Self::connect_light`] leave out what this passes.
     fn fixed_contributions(&self, _pixel: usize, _out: &mut impl FnMut(Splat)) {}
 
     /// Pass the contributions of one light sample (`light`, possibly empty) to pixel `pixel`,

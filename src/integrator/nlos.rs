@@ -76,7 +76,7 @@ pub struct NlosTracer<'a> {
     /// Each shape's BSDF.
     bsdfs: Vec<Bsdf<Spectrum>>,
     /// Per shape: (every BSDF component is a delta, some component is), computed once.
-    delta: Vec<(bool, bool)>,
+    pub(super) delta: Vec<(bool, bool)>,
     /// Laser irradiance (× scale).
     irradiance: Spectrum,
     /// Scan points and laser spots.
@@ -384,8 +384,8 @@ impl Tracer for NlosTracer<'_> {
             // all-delta vertex, and where some component is delta the path goes on by sampling the
             // BSDF rather than towards hidden geometry (which would miss that component).
             let (all_delta, some_delta) = self.delta[it.shape as usize];
-            // ---- Emitter sampling
-            if st.keep(depth + offset) && !all_delta {
+            // ---- Emitter sampling (at a fixed scan point, fixed_contributions passes it once)
+            if st.keep(depth + offset) && !all_delta && !(depth == 0 && self.spot_paths_fixed()) {
                 self.emitter_sampling(pixel, &Vertex::new(it, wi, beta, opl, eta), out);
             }
             // No later vertex can pass filter_bounces: stop early (changes no result).

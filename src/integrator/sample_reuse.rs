@@ -344,16 +344,25 @@ impl NlosTracer<'_> {
         })
     }
 
-    /// A scan point's paths straight to the laser spots (which the per-point tracer adds at every
-    /// sample): the same at every light sample, so traced once per pixel and block instead of
-    /// once per sample. A camera's jittered first vertex is different at each sample: its spot
-    /// paths come with [`Self::connect_light`].
+    /// A scan point's paths straight to the laser spots: the same at every sample, so traced
+    /// once per pixel and block instead of once per sample, for shared renders and one path per
+    /// scan point alike. A camera's jittered first vertex is different at each sample: its spot
+    /// paths come with [`Self::connect_light`] or the path.
     pub(super) fn fixed_contributions(&self, pixel: usize, out: &mut impl FnMut(Splat)) {
-        if self.camera.is_none()
+        if self.spot_paths_fixed()
             && let Some(x) = self.scan_vertices[pixel]
+            && !self.delta[x.it.shape as usize].0
         {
             self.spot_paths(pixel, &x, out);
         }
+    }
+
+    /// Whether a scan point's paths straight to the laser spots take no randomness (no camera
+    /// jitters its first vertex, and laser sampling connects it to the spots): then
+    /// [`Self::fixed_contributions`] passes them, not each sample.
+    #[inline]
+    pub(super) fn spot_paths_fixed(&self) -> bool {
+        self.camera.is_none() && self.settings.laser_sampling
     }
 
     /// The paths first vertex `x` of `pixel` → laser spot (depth 2).
