@@ -182,3 +182,53 @@ fn quarter_angle_sin_cos_matches_libm() {
         .fold(0.0f64, f64::max);
     assert!(worst < 1.2e-7, "worst error {worst:e}");
 }
+
+#[test]
+fn hgrs_resampled_step_is_unbiased_with_and_without_candidate_roulette() {
+    // Candidates visible with probability 0.3, weights uniform in [0, 2) (one-draw estimates of
+    // mean 0.3): the resampled step's weight averages 0.3 with every candidate tested and with
+    // the roulette (q = 1/4 after the first visible one), which tests fewer candidates.
+    use nlos_rs::geometry::Interaction;
+    use nlos_rs::integrator::{Step, hgrs};
+    use nlos_rs::settings::{Hgrs, HgrsEstimator};
+    for roulette in [1.0f32, 0.25] {
+        let h = Hgrs {
+            max_iterations: 10,
+            estimator: HgrsEstimator::Resampled,
+            roulette,
+        };
+        let mut rng = Sampler::new(7, 8, roulette.to_bits() as u64);
+        let (n, mut sum, mut sum2, mut drawn) = (200_000, 0.0f64, 0.0f64, 0u64);
+        for _ in 0..n {
+            let w = hgrs::sample(h, &mut rng, |rng| {
+                drawn += 1;
+                let (visible, w) = (rng.next_1d() < 0.3, 2.0 * rng.next_1d());
+                visible.then_some(Step {
+                    next: Interaction {
+                        p: Vec3A::ZERO,
+                        ng: Vec3A::Z,
+                        ns: Vec3A::Z,
+                        shape: 0,
+                    },
+                    dist: 1.0,
+                    weight: Vec3A::splat(w),
+                    eta: 1.0,
+                })
+            })
+            .map_or(0.0, |s| s.weight.x as f64);
+            (sum, sum2) = (sum + w, sum2 + w * w);
+        }
+        let mean = sum / n as f64;
+        let se = ((sum2 / n as f64 - mean * mean) / n as f64).sqrt();
+        println!(
+            "roulette {roulette}: mean {mean:.5} ± {se:.5}, {:.2} candidates per step",
+            drawn as f64 / n as f64
+        );
+        assert!(
+            (mean - 0.3).abs() < 4.0 * se,
+            "roulette {roulette}: {mean} ± {se}"
+        );
+        // Expected: about 3.2 until the first visible one, then a quarter of the rest (1.7).
+        assert!(roulette == 1.0 || (drawn as f64) < 5.5 * n as f64);
+    }
+}

@@ -34,16 +34,26 @@ pub enum HgrsEstimator {
 }
 
 /// Hidden Geometry Rejection Sampling settings.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Hgrs {
     /// Draws per vertex (N).
     pub max_iterations: u32,
     /// Estimator.
     pub estimator: HgrsEstimator,
+    /// `hgrs_candidate_roulette`: once a vertex has a visible candidate, each later candidate of
+    /// the resampled estimator is drawn and tested only with this probability (1: all are).
+    pub roulette: f32,
 }
 
 impl Hgrs {
-    fn parse(plugin: &str, max_iterations: i64, estimator: &str) -> Result<Self> {
+    fn parse(plugin: &str, max_iterations: i64, estimator: &str, roulette: f64) -> Result<Self> {
+        if !(roulette > 0.0 && roulette <= 1.0) {
+            return Err(NlosError::prop(
+                plugin,
+                "hgrs_candidate_roulette",
+                format!("must be in (0, 1], got {roulette}"),
+            ));
+        }
         // Bounded so that one sample stays short enough for Ctrl-C to act within a poll.
         if !(1..=10_000).contains(&max_iterations) {
             return Err(NlosError::prop(
@@ -63,9 +73,17 @@ impl Hgrs {
                 ));
             }
         };
+        if roulette < 1.0 && estimator == HgrsEstimator::Rejection {
+            return Err(NlosError::prop(
+                plugin,
+                "hgrs_candidate_roulette",
+                "applies to hgrs_estimator='resampled' only (rejection stops at its first visible candidate)",
+            ));
+        }
         Ok(Self {
             max_iterations: max_iterations as u32,
             estimator,
+            roulette: roulette as f32,
         })
     }
 }
@@ -155,6 +173,7 @@ impl NlosSettings {
                 plugin,
                 p.int("hgrs_max_iterations", 10)?,
                 &p.string("hgrs_estimator", "resampled")?,
+                p.float("hgrs_candidate_roulette", 1.0)?,
             )?)
         } else {
             None
@@ -238,6 +257,7 @@ impl NlosSettings {
                 let cur = self.hgrs.unwrap_or(Hgrs {
                     max_iterations: 10,
                     estimator: HgrsEstimator::Resampled,
+                    roulette: 1.0,
                 });
                 let est = match estimator {
                     Some(e) => e,
@@ -248,6 +268,13 @@ impl NlosSettings {
                     name,
                     max_iterations.unwrap_or(cur.max_iterations as i64),
                     est,
+                    // The roulette belongs to the resampled estimator: dropped on a switch to
+                    // rejection.
+                    if est == "rejection" {
+                        1.0
+                    } else {
+                        cur.roulette as f64
+                    },
                 )?);
                 if !s.hidden_geometry_sampling {
                     return Err(NlosError::prop(
