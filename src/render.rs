@@ -26,7 +26,8 @@ pub const BLOCK: u64 = 256;
 /// pass of subpaths at once.
 const PIXEL_GROUP: usize = 256;
 
-/// Light subpaths a group of pixels connects to at a time.
+/// Light subpaths a group of pixels connects to at a time; a camera's pixel draws one first
+/// vertex per tile of this many light samples.
 const LIGHT_TILE: u64 = 4;
 
 /// The stream key of a shared render's light samples (pixel keys are below it).
@@ -910,9 +911,10 @@ impl<'a, T: Tracer> Sampling<'a, T> {
                             self.plan.variance.then(|| SampleValues::new(len)),
                             Vec::new(),
                             Vec::new(),
+                            Vec::new(),
                         )
                     },
-                    |(values, fixed, rngs), (g, ((bufs, sums), sqs))| {
+                    |(values, fixed, rngs, own), (g, ((bufs, sums), sqs))| {
                         let group = pixels.start + g * group_len;
                         fixed.resize_with(sums.len(), Vec::new);
                         for (j, f) in fixed.iter_mut().enumerate().take(sums.len()) {
@@ -930,7 +932,9 @@ impl<'a, T: Tracer> Sampling<'a, T> {
                                         .map(|pixel| self.stream(pixel as u64, k0 / BLOCK)),
                                 );
                             }
-                            let k1 = (k0 + LIGHT_TILE)
+                            // Tiles of LIGHT_TILE samples aligned on the sample index, so
+                            // that no split of the samples moves them.
+                            let k1 = ((k0 / LIGHT_TILE + 1) * LIGHT_TILE)
                                 .min((k0 / BLOCK + 1) * BLOCK)
                                 .min(pass_end);
                             let tile = &lights[(k0 - start) as usize..(k1 - start) as usize];
@@ -942,19 +946,26 @@ impl<'a, T: Tracer> Sampling<'a, T> {
                                 .enumerate()
                             {
                                 let pixel = group + j;
-                                for (k, light) in (k0..).zip(tile) {
-                                    pixel_rng.start(k);
-                                    for s in fixed[j].iter() {
+                                // The pixel's first vertex for the tile, and its own paths.
+                                pixel_rng.start(k0);
+                                own.clear();
+                                let x = self
+                                    .tracer
+                                    .pixel_vertex(pixel, pixel_rng, &mut |s| own.push(s));
+                                for light in tile {
+                                    for s in fixed[j].iter().chain(own.iter()) {
                                         self.deposit(s, buf, sum, values.as_mut(), 0);
                                     }
-                                    self.tracer.connect_light(
-                                        pixel,
-                                        pixel_rng,
-                                        light.as_ref(),
-                                        &mut |s| {
-                                            self.deposit(&s, buf, sum, values.as_mut(), 0);
-                                        },
-                                    );
+                                    if let Some(x) = &x {
+                                        self.tracer.connect_light(
+                                            pixel,
+                                            x,
+                                            light.as_ref(),
+                                            &mut |s| {
+                                                self.deposit(&s, buf, sum, values.as_mut(), 0);
+                                            },
+                                        );
+                                    }
                                     if let (Some(v), Some(sq)) =
                                         (values.as_mut(), sq.as_deref_mut())
                                     {

@@ -99,12 +99,26 @@ pub trait Tracer: Sync {
     /// takes none. [`Self::trace`] and [`Self::connect_light`] leave out what this passes.
     fn fixed_contributions(&self, _pixel: usize, _out: &mut impl FnMut(Splat)) {}
 
-    /// Pass the contributions of one light sample (`light`, possibly empty) to pixel `pixel`,
-    /// whose own stream `pixel_rng` draws its first vertex.
-    fn connect_light(
+    /// The first vertex of `pixel` for a tile of light samples: a camera's jittered one, drawn
+    /// from the pixel's own stream `pixel_rng`, or the fixed scan point (which takes none); and
+    /// to `out` the paths from it that use no light subpath and that [`Self::fixed_contributions`]
+    /// does not pass (a jittered point's paths straight to the laser spots), which each sample
+    /// of the tile adds. `None` if the pixel sees nothing.
+    fn pixel_vertex(
         &self,
         _pixel: usize,
         _pixel_rng: &mut Sampler,
+        _out: &mut impl FnMut(Splat),
+    ) -> Option<Vertex> {
+        None
+    }
+
+    /// Pass the contributions of one light sample (`light`, possibly empty) to pixel `pixel`
+    /// through its first vertex `x` ([`Self::pixel_vertex`]).
+    fn connect_light(
+        &self,
+        _pixel: usize,
+        _x: &Vertex,
         _light: Option<&Self::Light>,
         _out: &mut impl FnMut(Splat),
     ) {

@@ -349,14 +349,23 @@ impl Tracer for NlosTracer<'_> {
         NlosTracer::fixed_contributions(self, pixel, out)
     }
 
-    fn connect_light(
+    fn pixel_vertex(
         &self,
         pixel: usize,
         pixel_rng: &mut Sampler,
+        out: &mut impl FnMut(Splat),
+    ) -> Option<Vertex> {
+        NlosTracer::pixel_vertex(self, pixel, pixel_rng, out)
+    }
+
+    fn connect_light(
+        &self,
+        pixel: usize,
+        x: &Vertex,
         light: Option<&Self::Light>,
         out: &mut impl FnMut(Splat),
     ) {
-        NlosTracer::connect_light(self, pixel, pixel_rng, light, out)
+        NlosTracer::connect_light(self, pixel, x, light, out)
     }
 
     /// Trace one path from the scan point of `pixel` (mitransient-model §3.2–3.3).

@@ -373,24 +373,36 @@ impl NlosTracer<'_> {
         }
     }
 
-    /// The contributions of one light sample to `pixel`: with a camera, its first vertex's spot
-    /// paths, and the connection of every vertex of `light`. The pixel's first vertex is drawn
-    /// from its own stream `pixel_rng` (a camera's jittered ray; a scan point takes no
-    /// randomness), so no pixel's result depends on which others share it.
-    pub(super) fn connect_light(
+    /// The first vertex of `pixel` for a tile of light samples, and to `out` a camera's jittered
+    /// vertex's spot paths (a scan point's are fixed contributions). A camera's vertex is drawn
+    /// once per tile from the pixel's own stream `pixel_rng` (a scan point takes no randomness),
+    /// so no pixel's result depends on which others share the light samples; each of the tile's
+    /// light samples pairs with it, so each pair keeps its distribution (a uniform point of the
+    /// pixel, an independent light sample) and the estimate its expectation, for one camera ray
+    /// and spot path per tile instead of per sample.
+    pub(super) fn pixel_vertex(
         &self,
         pixel: usize,
         pixel_rng: &mut Sampler,
+        out: &mut impl FnMut(Splat),
+    ) -> Option<Vertex> {
+        let x = self.first_vertex(pixel, pixel_rng)?;
+        if !self.spot_paths_fixed() {
+            self.spot_paths(pixel, &x, out);
+        }
+        Some(x)
+    }
+
+    /// The contributions of one light sample to `pixel` through its first vertex `x`: the
+    /// connection of every vertex of `light`.
+    pub(super) fn connect_light(
+        &self,
+        pixel: usize,
+        x: &Vertex,
         light: Option<&LightPath>,
         out: &mut impl FnMut(Splat),
     ) {
         let st = self.settings;
-        let Some(x) = self.first_vertex(pixel, pixel_rng) else {
-            return;
-        };
-        if self.camera.is_some() {
-            self.spot_paths(pixel, &x, out);
-        }
         let (Some(light), Some(hg)) = (light, self.hidden.as_ref()) else {
             return;
         };
@@ -401,7 +413,7 @@ impl NlosTracer<'_> {
         match (&light.spot_free, st.capture_type) {
             (None, _) => {
                 for v in &light.vertices {
-                    self.connect_scan_point(&x, v, area, Spots::InWeight, out);
+                    self.connect_scan_point(x, v, area, Spots::InWeight, out);
                 }
             }
             (Some(free), CaptureType::Confocal) => {
@@ -419,12 +431,12 @@ impl NlosTracer<'_> {
                     || *seen.get_or_insert_with(|| self.scene.visible_to(&x.it, &free.first));
                 for v in &light.vertices {
                     let spots = Spots::Confocal(link, &mut link_visible);
-                    self.connect_scan_point(&x, v, area, spots, out);
+                    self.connect_scan_point(x, v, area, spots, out);
                 }
             }
             (Some(free), _) => {
                 for v in &light.vertices {
-                    self.connect_scan_point(&x, v, area, Spots::Linked(&free.links), out);
+                    self.connect_scan_point(x, v, area, Spots::Linked(&free.links), out);
                 }
             }
         }
