@@ -8,7 +8,7 @@ Workloads (most were not tuned for): the built-in Z (single, confocal, exhaustiv
 flat letter at 1 m, unbounded depth, albedo 0.7, and a 200k-triangle bumpy sphere (single and
 confocal each); the T behind two
 corners (five-vertex signal); Mitsuba's own mi.cornell_box() made transient (line of sight); a
-1×1 capture; rgb. mitransient's time is its render call with dr.eval + dr.sync_thread.
+1×1 capture; rgb; mitransient's example file nlos-z-simple.xml (a perspective camera). mitransient's time is its render call with dr.eval + dr.sync_thread.
 """
 
 from __future__ import annotations
@@ -98,6 +98,9 @@ def workloads(quick: bool):
         "cornell_los": (cornell, "mono"),
         "one_pixel": (lambda: z(1 << 22, width=1, height=1), "mono"),
         "z_rgb": (lambda: z(4096, width=32, height=32), "rgb"),
+        # mitransient's own example file: a perspective camera looks at the relay wall.
+        "mitransient_camera_file": (lambda: (str(Path(__file__).resolve().parent.parent / "tests" / "data" / "mitransient"
+                                                 / "transient-nlos" / "nlos-z-simple.xml"), max(1, 4096 // div)), "mono"),
     }
 
 
@@ -168,14 +171,18 @@ def main() -> None:
         import drjit as dr
 
         dr.set_thread_count(args.threads)
-        spp, npix = spp_of(d), pixels(d)
+        if isinstance(d, tuple):  # a scene file and the spp to render it at
+            path, spp = d
+            ours_scene, theirs_scene = nlos_rs.load_file(path), mi.load_file(path)
+            npix = ours_scene.film_size[0] * ours_scene.film_size[1]
+        else:
+            spp, npix = spp_of(d), pixels(d)
+            ours_scene, theirs_scene = nlos_rs.load_dict(d), mi.load_dict(to_mitsuba(d))
         paths = spp * npix
-        ours_scene = nlos_rs.load_dict(d)
-        theirs_scene = mi.load_dict(to_mitsuba(d))
 
         def ours(threads=args.threads) -> float:
             t0 = time.perf_counter()
-            nlos_rs.render(ours_scene, threads=threads, progress=False, variant=variant)
+            nlos_rs.render(ours_scene, spp=spp, threads=threads, progress=False, variant=variant)
             return time.perf_counter() - t0
 
         def theirs() -> float:
