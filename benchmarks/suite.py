@@ -192,19 +192,20 @@ def main() -> None:
             dr.sync_thread()
             return time.perf_counter() - t0
 
-        ours(), theirs()
-        to, tt = [], []
-        for _ in range(args.repeats):
-            to.append(ours())
-            tt.append(theirs())
-        mo, mt = statistics.median(to), statistics.median(tt)
-        # Scaling: 1 and N threads alternately, away from mitransient's renders (whose worker
-        # threads may still spin when ours start).
+        # Scaling: 1 and N threads alternately, before mitransient renders anything in this
+        # process (its worker threads go on spinning after a render and take cores from ours).
+        ours()
         one, many = [], []
         for _ in range(args.repeats):
             one.append(ours(1))
             many.append(ours())
         scaling = statistics.median(one) / statistics.median(many)
+        theirs()
+        to, tt = [], []
+        for _ in range(args.repeats):
+            to.append(ours())
+            tt.append(theirs())
+        mo, mt = statistics.median(to), statistics.median(tt)
         rows.append((name, paths, paths / mo / 1e6, paths / mt / 1e6, mt / mo, scaling))
         print(f"{name:16s} {paths / 1e6:8.1f} M paths  nlos_rs {paths / mo / 1e6:7.2f}  mitransient {paths / mt / 1e6:7.2f} "
               f"M paths/s  ratio {mt / mo:5.2f}x  scaling 1->{args.threads} threads {scaling:4.2f}x", flush=True)
