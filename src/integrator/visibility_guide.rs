@@ -13,9 +13,10 @@
 //! count and render part.
 
 use super::NlosTracer;
+use crate::capture::Spot;
 use crate::geometry::Interaction;
 use crate::sampling::{Discrete, Sampler};
-use crate::scene::AreaSampler;
+use crate::scene::{AreaSampler, Scene};
 use crate::settings::CaptureType;
 use rayon::prelude::*;
 
@@ -118,7 +119,7 @@ impl Guide {
     pub(super) fn sample(
         &self,
         hg: &AreaSampler,
-        scene: &crate::scene::Scene,
+        scene: &Scene,
         rng: &mut Sampler,
     ) -> (Interaction, f32) {
         let (y, k) = hg.sample_with(&self.dist, scene, rng);
@@ -127,7 +128,7 @@ impl Guide {
 }
 
 /// The fraction of `probes` whose spot lights `y` (facing it, unoccluded, sending light its way).
-fn lit_fraction(tracer: &NlosTracer, y: &Interaction, probes: &[&crate::capture::Spot]) -> f64 {
+fn lit_fraction(tracer: &NlosTracer, y: &Interaction, probes: &[&Spot]) -> f64 {
     let lit = probes
         .iter()
         .filter(|spot| tracer.spot_lights(y, spot))
