@@ -1,6 +1,6 @@
 """Benchmark suite (not a test): nlos_rs against mitransient 1.3.1 on several workloads, in one run,
 both on the same threads, warm, interleaved, median of repeats. Prints paths/s and the ratio per
-workload as a Markdown table, and nlos_rs's scaling from 1 to 2 threads.
+workload as a Markdown table, and nlos_rs's scaling from 1 to 2 threads (best of 5 each).
 
     python benchmarks/suite.py [--threads 2] [--repeats 3] [--only NAME ...] [--quick]
 
@@ -173,11 +173,11 @@ def main() -> None:
         dr.set_thread_count(args.threads)
         if isinstance(d, tuple):  # a scene file and the spp to render it at
             path, spp = d
-            ours_scene, theirs_scene = nlos_rs.load_file(path), mi.load_file(path)
+            ours_scene = nlos_rs.load_file(path)
             npix = ours_scene.film_size[0] * ours_scene.film_size[1]
         else:
             spp, npix = spp_of(d), pixels(d)
-            ours_scene, theirs_scene = nlos_rs.load_dict(d), mi.load_dict(to_mitsuba(d))
+            ours_scene = nlos_rs.load_dict(d)
         paths = spp * npix
 
         def ours(threads=args.threads) -> float:
@@ -192,14 +192,16 @@ def main() -> None:
             dr.sync_thread()
             return time.perf_counter() - t0
 
-        # Scaling: 1 and N threads alternately, before mitransient renders anything in this
+        # Scaling: best of 5 at 1 and N threads, alternately (a render of 0.1 s moves by ±20 % from
+        # run to run on a shared machine), before mitransient loads or renders anything in this
         # process (its worker threads go on spinning after a render and take cores from ours).
         ours()
         one, many = [], []
-        for _ in range(args.repeats):
+        for _ in range(max(5, args.repeats)):
             one.append(ours(1))
             many.append(ours())
-        scaling = statistics.median(one) / statistics.median(many)
+        scaling = min(one) / min(many)
+        theirs_scene = mi.load_file(d[0]) if isinstance(d, tuple) else mi.load_dict(to_mitsuba(d))
         theirs()
         to, tt = [], []
         for _ in range(args.repeats):

@@ -28,7 +28,7 @@ const PIXEL_GROUP: usize = 256;
 
 /// Light subpaths a group of pixels connects to at a time; a camera's pixel draws one first
 /// vertex per tile of this many light samples.
-const LIGHT_TILE: u64 = 4;
+const LIGHT_TILE: u64 = 8;
 
 /// The stream key of a shared render's light samples (pixel keys are below it).
 const SHARED_STREAM: u64 = u64::MAX;
