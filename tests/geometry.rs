@@ -1,5 +1,5 @@
-//! The BVH wrapper against obvhs' pitfalls (see src/geometry/bvh.rs): watertight
-//! hits on closed meshes, rays with -0.0 direction components, and agreement with brute force.
+//! The 4-wide BVH (src/geometry/bvh.rs): watertight hits on closed meshes, rays with -0.0
+//! direction components, and agreement with brute force.
 
 use glam::Vec3A;
 use nlos_rs::geometry::{
@@ -94,7 +94,7 @@ fn watertight_from_inside() {
 
 #[test]
 fn negative_zero_directions_hit() {
-    // CwBvh misses every ray with a -0.0 direction component unless canonicalised (§6.1).
+    // A -0.0 direction component (obvhs' compressed-wide BVH, used before, missed such rays).
     let mut rng = Sampler::new(4, 5, 6);
     let prims = closed_sphere(8, 16, 0.1, &mut rng);
     let accel = build(&prims);

@@ -1,29 +1,37 @@
-//! The one module that talks to obvhs (0.4). It guards against three behaviours of that crate:
-//! directions are canonicalised so that no component is
-//! `-0.0` (CwBvh would miss such rays), hits use our watertight primitive tests instead of obvhs'
-//! Möller–Trumbore ones (which leak through shared edges), and rays (nearly) parallel to an axis
-//! plane do not use obvhs' ray–node test: it clamps the entry distance to 1e-4, so it culls a box
-//! whose face contains such a ray (a scan ray in a symmetry plane of the scene). Such a ray visits
-//! instead every node whose box overlaps the bounding box of its segment (clipped to the scene):
-//! conservative, and few nodes for a ray along an axis (a laser aimed straight at a wall).
-//! Padding the boxes instead would cost every ray: CwBvh quantises child boxes outwards, turning a
-//! flat relay wall into a slab that every shadow ray towards the wall enters.
+//! The scene's ray-tracing acceleration structure: a 4-wide BVH (Dammertz, Hanika and Keller
+//! 2008, "Shallow bounding volume hierarchies for fast SIMD ray tracing of incoherent rays";
+//! Wald, Benthin and Boulos 2008, "Getting rid of packets"). Each node holds its four children's
+//! boxes, tested against a ray in the four lanes of one SIMD vector (glam's `Vec4`: SSE2 on
+//! x86-64, NEON on aarch64), and leaves hold triangles in packs of four, tested the same way.
+//!
+//! The tree's shape comes from obvhs' (0.4) binary PLOC builder with reinsertion
+//! ([`build_bvh2`]); it is collapsed here to four children per node, always opening the child
+//! with the largest surface. Traversal is front to back: a popped node farther than the closest
+//! hit so far is skipped.
+//!
+//! Three points keep hits exact:
+//! - triangles use the watertight test (Woop, Benthin and Wald 2013) lane by lane with the very
+//!   operations of the scalar [`intersect_triangle`], so both give the same bits; a lane with an
+//!   edge function of exactly zero goes to the scalar test and its double-precision fallback;
+//! - the slab test widens each far distance by 2γ₃ (pbrt-v4, `Bounds3::IntersectP`), so rounding
+//!   never culls a box that the ray meets;
+//! - rays parallel to within rounding of an axis plane (a laser aimed straight at a wall, scan rays
+//!   in a symmetry plane) do not use the slab test, where 0·∞ and a ray lying in a box face are
+//!   ill-conditioned: they visit every node whose box overlaps the box of their segment (clipped
+//!   to the scene), which is conservative and few nodes for a ray along an axis.
 
-use super::{Hit, Prim};
-use glam::{UVec2, Vec3A};
+use super::{Hit, Prim, intersect_triangle};
+use glam::{BVec4A, Vec3A, Vec4};
 use obvhs::{
     Boundable, BvhBuildParams,
     aabb::Aabb,
-    cwbvh::{CwBvh, Traversal, builder::build_cwbvh},
-    ray::Ray,
+    bvh2::{Bvh2, builder::build_bvh2},
 };
 use std::cell::RefCell;
 
 thread_local! {
-    /// Each thread's traversal state, reused from ray to ray: obvhs' own entry points build a
-    /// fresh one per ray, zeroing its 256-byte stack (a `memset` that took a tenth of a render's
-    /// time); [`Traversal::reinit`] only resets the stack's top.
-    static TRAVERSAL: RefCell<Traversal> = RefCell::new(Traversal::default());
+    /// Each thread's traversal stack (node code, entry distance), reused from ray to ray.
+    static STACK: RefCell<Vec<(u32, f32)>> = const { RefCell::new(Vec::new()) };
 }
 
 impl Boundable for Prim {
@@ -33,41 +41,71 @@ impl Boundable for Prim {
     }
 }
 
-/// Is the (unit) direction parallel, to within rounding, to an axis plane? A ray starting on a
-/// box face with such a direction can be culled by obvhs' ray–node test although it hits a
-/// primitive in the box; random directions are this close with probability ~3e-6, scan rays in
-/// symmetry planes always.
+/// Is the (unit) direction parallel, to within rounding, to an axis plane? Such rays take the
+/// segment-box traversal (see the module's notes); random directions are this close with
+/// probability ~3e-6, scan rays in symmetry planes always.
 #[inline]
 fn near_axis_plane(d: Vec3A) -> bool {
     d.abs().min_element() < 1e-6
 }
 
-/// A compressed-wide BVH over the scene's primitives, kept in BVH slot order.
+/// A child code with this bit set is a leaf (the rest is its index in [`Accel::leaves`]); without
+/// it, a node index.
+const LEAF: u32 = 1 << 31;
+/// An unused child slot (its box is empty, so no ray or segment enters it).
+const EMPTY: u32 = u32::MAX;
+/// Triangles per leaf at most (one or two packs), as obvhs' collapse of the binary tree makes them.
+const LEAF_PRIMS: u32 = 4;
+/// 1 + 2γ₃ (pbrt-v4): the factor that makes the slab test conservative under rounding.
+const SLAB_PAD: f32 = 1.0 + 2.0 * (3.0 * f32::EPSILON * 0.5) / (1.0 - 3.0 * f32::EPSILON * 0.5);
+
+/// A node: its four children's boxes, one child per lane (`lo[axis]`, `hi[axis]`).
+#[derive(Clone, Copy)]
+struct Node {
+    lo: [Vec4; 3],
+    hi: [Vec4; 3],
+    child: [u32; 4],
+}
+
+/// Four triangles, one per lane: `v[vertex][axis]`.
+#[derive(Clone, Copy)]
+struct TriPack {
+    v: [[Vec4; 3]; 3],
+    /// Each lane's primitive index in scene order.
+    prim: [u32; 4],
+    /// Each lane's plane key ([`Accel::plane_of`]).
+    plane: [u32; 4],
+    /// Lanes holding a triangle (bit per lane).
+    valid: u32,
+}
+
+/// A leaf: its triangle packs and its other primitives, as ranges.
+#[derive(Clone, Copy)]
+struct Leaf {
+    packs: (u32, u32),
+    others: (u32, u32),
+}
+
+/// A 4-wide BVH over the scene's primitives.
 pub struct Accel {
-    bvh: CwBvh,
-    /// Primitives in slot order.
-    prims: Vec<Prim>,
-    /// Slot → index of the primitive in scene order.
-    slot_to_prim: Vec<u32>,
-    /// Slot → the plane its primitive lies in: its shape's index if the whole shape is planar,
-    /// else [`NO_PLANE`].
-    plane: Vec<u32>,
+    /// Node 0 is the root (when there are primitives).
+    nodes: Vec<Node>,
+    leaves: Vec<Leaf>,
+    packs: Vec<TriPack>,
+    /// Spheres and disks, with their index in scene order (their plane key is [`NO_PLANE`]).
+    others: Vec<(Prim, u32)>,
     /// Per shape: all its primitives are triangles in one plane.
     planar: Vec<bool>,
     /// Per shape: its number of primitives.
     shape_prims: Vec<u32>,
+    /// Number of primitives.
+    len: usize,
     /// Bounds of every primitive (where an unbounded ray's segment ends).
     bounds: Aabb,
 }
 
 /// The plane key of a primitive on no shared plane.
 pub const NO_PLANE: u32 = u32::MAX;
-
-/// Whether a primitive of plane key `key` lies on one of the planes `skip`.
-#[inline]
-fn on_skipped(key: u32, skip: [u32; 2]) -> bool {
-    key != NO_PLANE && (key == skip[0] || key == skip[1])
-}
 
 /// Per shape (of `shapes`, owning `prims` by `prim_shape`): whether all its primitives are
 /// triangles whose vertices lie within rounding (1e-6 of the coordinates' magnitude) of one plane
@@ -92,43 +130,283 @@ fn planar_shapes(prims: &[Prim], prim_shape: &[u32], shapes: usize) -> Vec<bool>
     planar
 }
 
-/// Turn `-0.0` components into `+0.0` (CwBvh's node test misses rays with a `-0.0` component);
-/// nothing else changes.
-#[inline]
-pub fn canonical_dir(d: Vec3A) -> Vec3A {
-    d + Vec3A::ZERO
+/// A ray prepared for the four-lane tests.
+struct Ray4 {
+    o: Vec3A,
+    d: Vec3A,
+    tmin: f32,
+    /// Slab test: origin and inverse direction per axis, and whether the direction is negative.
+    org: [Vec4; 3],
+    inv: [Vec4; 3],
+    neg: [bool; 3],
+    /// Near an axis plane: the box of the segment, tested for overlap instead.
+    segment: Option<([Vec4; 3], [Vec4; 3])>,
+    /// Watertight test: the axes permuted so that z is the dominant direction component, the
+    /// permuted origin and the shear (sx, sy, sz), each splat over the lanes.
+    k: [usize; 3],
+    ko: [Vec4; 3],
+    shear: [Vec4; 3],
+}
+
+impl Ray4 {
+    fn new(accel: &Accel, o: Vec3A, d: Vec3A, tmin: f32, tmax: f32) -> Self {
+        // The permutation and shear of `intersect_triangle`.
+        let ad = d.abs();
+        let kz = if ad.x > ad.y {
+            if ad.x > ad.z { 0 } else { 2 }
+        } else if ad.y > ad.z {
+            1
+        } else {
+            2
+        };
+        let kx = (kz + 1) % 3;
+        let ky = (kx + 1) % 3;
+        let (sx, sy, sz) = (-d[kx] / d[kz], -d[ky] / d[kz], 1.0 / d[kz]);
+        let segment = near_axis_plane(d).then(|| {
+            let (lo, hi) = accel.segment_box(o, d, tmin, tmax);
+            (
+                lo.to_array().map(Vec4::splat),
+                hi.to_array().map(Vec4::splat),
+            )
+        });
+        Self {
+            o,
+            d,
+            tmin,
+            org: o.to_array().map(Vec4::splat),
+            inv: d.recip().to_array().map(Vec4::splat),
+            neg: d.to_array().map(|c| c < 0.0),
+            segment,
+            k: [kx, ky, kz],
+            ko: [o[kx], o[ky], o[kz]].map(Vec4::splat),
+            shear: [sx, sy, sz].map(Vec4::splat),
+        }
+    }
+
+    /// Which of `node`'s children the ray enters before `tmax` (bit per lane), and where.
+    #[inline]
+    fn enter(&self, node: &Node, tmax: f32) -> (u32, Vec4) {
+        if let Some((lo, hi)) = &self.segment {
+            let mut hit = BVec4A::splat(true);
+            for a in 0..3 {
+                hit &= node.lo[a].cmple(hi[a]) & node.hi[a].cmpge(lo[a]);
+            }
+            return (hit.bitmask(), Vec4::splat(self.tmin));
+        }
+        let mut near = Vec4::splat(self.tmin);
+        let mut far = Vec4::splat(tmax);
+        for a in 0..3 {
+            let (n, f) = if self.neg[a] {
+                (node.hi[a], node.lo[a])
+            } else {
+                (node.lo[a], node.hi[a])
+            };
+            near = near.max((n - self.org[a]) * self.inv[a]);
+            far = far.min((f - self.org[a]) * self.inv[a] * SLAB_PAD);
+        }
+        (near.cmple(far).bitmask(), near)
+    }
+
+    /// The watertight test on four triangles: the lanes hit in `(tmin, tmax)` (bit per lane)
+    /// with their distance, and the lanes to redo in the scalar test (an edge function is zero).
+    /// Each lane runs the operations of [`intersect_triangle`] in its order.
+    #[inline]
+    fn triangles(&self, p: &TriPack, tmax: f32) -> (u32, u32, [Vec4; 4]) {
+        let [kx, ky, kz] = self.k;
+        let vertex = |v: &[Vec4; 3]| {
+            let (x, y, z) = (v[kx] - self.ko[0], v[ky] - self.ko[1], v[kz] - self.ko[2]);
+            (
+                x + self.shear[0] * z,
+                y + self.shear[1] * z,
+                z * self.shear[2],
+            )
+        };
+        let (p0, p1, p2) = (vertex(&p.v[0]), vertex(&p.v[1]), vertex(&p.v[2]));
+        let e0 = p1.0 * p2.1 - p1.1 * p2.0;
+        let e1 = p2.0 * p0.1 - p2.1 * p0.0;
+        let e2 = p0.0 * p1.1 - p0.1 * p1.0;
+        let zero = Vec4::ZERO;
+        let exact_zero = (e0.cmpeq(zero) | e1.cmpeq(zero) | e2.cmpeq(zero)).bitmask() & p.valid;
+        let neg = e0.cmplt(zero) | e1.cmplt(zero) | e2.cmplt(zero);
+        let pos = e0.cmpgt(zero) | e1.cmpgt(zero) | e2.cmpgt(zero);
+        let det = e0 + e1 + e2;
+        let inv_det = Vec4::ONE / det;
+        let t = (e0 * p0.2 + e1 * p1.2 + e2 * p2.2) * inv_det;
+        let hit = !(neg & pos)
+            & det.cmpne(zero)
+            & t.cmpgt(Vec4::splat(self.tmin))
+            & t.cmplt(Vec4::splat(tmax));
+        let hit = hit.bitmask() & p.valid & !exact_zero;
+        (hit, exact_zero, [t, e1, e2, inv_det])
+    }
+
+    /// The scalar watertight test on lane `lane` of `p`.
+    fn triangle_lane(&self, p: &TriPack, lane: usize, tmax: f32) -> Option<(f32, f32, f32)> {
+        let v = p.v.map(|v| Vec3A::new(v[0][lane], v[1][lane], v[2][lane]));
+        intersect_triangle(self.o, self.d, self.tmin, tmax, &v)
+    }
+}
+
+/// Builds the 4-wide tree from obvhs' binary one.
+struct Collapse<'a> {
+    bvh2: &'a Bvh2,
+    prims: &'a [Prim],
+    plane: &'a dyn Fn(usize) -> u32,
+    nodes: Vec<Node>,
+    leaves: Vec<Leaf>,
+    packs: Vec<TriPack>,
+    others: Vec<(Prim, u32)>,
+}
+
+impl Collapse<'_> {
+    /// The code of binary node `i` as a child.
+    fn child(&mut self, i: usize) -> u32 {
+        if self.bvh2.nodes[i].is_leaf() {
+            self.leaf(i)
+        } else {
+            self.node(&self.open(i))
+        }
+    }
+
+    /// Up to four binary descendants of inner node `i` that cover it: its children, then,
+    /// while fewer than four, the children of the largest inner one instead of it.
+    fn open(&self, i: usize) -> Vec<usize> {
+        let nodes = &self.bvh2.nodes;
+        let first = nodes[i].first_index as usize;
+        let mut kids = vec![first, first + 1];
+        while kids.len() < 4 {
+            let Some(at) = (0..kids.len())
+                .filter(|&k| !nodes[kids[k]].is_leaf())
+                .max_by(|&a, &b| {
+                    let area = |k: usize| nodes[kids[k]].aabb().half_area();
+                    area(a).total_cmp(&area(b))
+                })
+            else {
+                break;
+            };
+            let first = nodes[kids[at]].first_index as usize;
+            kids[at] = first;
+            kids.push(first + 1);
+        }
+        kids
+    }
+
+    /// A 4-wide node over the binary nodes `kids`; returns its index.
+    fn node(&mut self, kids: &[usize]) -> u32 {
+        let id = self.nodes.len();
+        self.nodes.push(Node {
+            lo: [Vec4::INFINITY; 3],
+            hi: [Vec4::NEG_INFINITY; 3],
+            child: [EMPTY; 4],
+        });
+        let mut lo = [[f32::INFINITY; 4]; 3];
+        let mut hi = [[f32::NEG_INFINITY; 4]; 3];
+        let mut child = [EMPTY; 4];
+        for (lane, &k) in kids.iter().enumerate() {
+            let b = *self.bvh2.nodes[k].aabb();
+            for a in 0..3 {
+                lo[a][lane] = b.min[a];
+                hi[a][lane] = b.max[a];
+            }
+            child[lane] = self.child(k);
+        }
+        self.nodes[id] = Node {
+            lo: lo.map(Vec4::from_array),
+            hi: hi.map(Vec4::from_array),
+            child,
+        };
+        id as u32
+    }
+
+    /// The leaf of binary leaf `i`: its triangles in packs of four, its other primitives apart.
+    fn leaf(&mut self, i: usize) -> u32 {
+        let n = &self.bvh2.nodes[i];
+        let range = n.first_index as usize..(n.first_index + n.prim_count) as usize;
+        let (first_pack, first_other) = (self.packs.len() as u32, self.others.len() as u32);
+        let mut lanes = 0;
+        for &index in &self.bvh2.primitive_indices[range] {
+            let prim = self.prims[index as usize];
+            let Prim::Triangle { v, .. } = prim else {
+                self.others.push((prim, index));
+                continue;
+            };
+            if lanes % 4 == 0 {
+                self.packs.push(TriPack {
+                    v: [[Vec4::ZERO; 3]; 3],
+                    prim: [0; 4],
+                    plane: [NO_PLANE; 4],
+                    valid: 0,
+                });
+            }
+            let (pack, lane) = (self.packs.last_mut().unwrap(), lanes % 4);
+            for (k, vk) in v.iter().enumerate() {
+                for a in 0..3 {
+                    let mut lane_values = pack.v[k][a].to_array();
+                    lane_values[lane] = vk[a];
+                    pack.v[k][a] = Vec4::from_array(lane_values);
+                }
+            }
+            pack.prim[lane] = index;
+            pack.plane[lane] = (self.plane)(index as usize);
+            pack.valid |= 1 << lane;
+            lanes += 1;
+        }
+        self.leaves.push(Leaf {
+            packs: (first_pack, self.packs.len() as u32),
+            others: (first_other, self.others.len() as u32),
+        });
+        LEAF | (self.leaves.len() - 1) as u32
+    }
 }
 
 impl Accel {
     /// Build over `prims` (scene order), owned by the `shapes` shapes by `prim_shape`.
     pub fn build(prims: &[Prim], prim_shape: &[u32], shapes: usize) -> Self {
-        let bvh = build_cwbvh(
-            prims,
-            BvhBuildParams::medium_build(),
-            &mut Default::default(),
-        );
-        let slot_to_prim = bvh.primitive_indices.clone();
         let planar = planar_shapes(prims, prim_shape, shapes);
-        let plane = slot_to_prim
-            .iter()
-            .map(|&i| {
-                let s = prim_shape[i as usize];
-                if planar[s as usize] { s } else { NO_PLANE }
-            })
-            .collect();
         let mut shape_prims = vec![0u32; shapes];
         for &s in prim_shape {
             shape_prims[s as usize] += 1;
         }
         let bounds = prims.iter().fold(Aabb::empty(), |b, p| b.union(&p.aabb()));
-        let prims = slot_to_prim.iter().map(|&i| prims[i as usize]).collect();
-        Self {
-            bvh,
+        let plane = |i: usize| {
+            let s = prim_shape[i];
+            if planar[s as usize] { s } else { NO_PLANE }
+        };
+        let bvh2 = build_bvh2(
             prims,
-            slot_to_prim,
-            plane,
+            BvhBuildParams {
+                max_prims_per_leaf: LEAF_PRIMS,
+                ..BvhBuildParams::medium_build()
+            },
+            &mut Default::default(),
+        );
+        let mut c = Collapse {
+            bvh2: &bvh2,
+            prims,
+            plane: &plane,
+            nodes: Vec::new(),
+            leaves: Vec::new(),
+            packs: Vec::new(),
+            others: Vec::new(),
+        };
+        if !prims.is_empty() {
+            // The root is node 0, also when the binary tree is a single leaf.
+            if bvh2.nodes[0].is_leaf() {
+                c.node(&[0]);
+            } else {
+                let kids = c.open(0);
+                c.node(&kids);
+            }
+        }
+        let (nodes, leaves, packs, others) = (c.nodes, c.leaves, c.packs, c.others);
+        Self {
+            nodes,
+            leaves,
+            packs,
+            others,
             planar,
             shape_prims,
+            len: prims.len(),
             bounds,
         }
     }
@@ -142,28 +420,44 @@ impl Accel {
         }
     }
 
-    fn ray(o: Vec3A, d: Vec3A, tmin: f32, tmax: f32) -> Ray {
-        Ray::new(o, canonical_dir(d), tmin, tmax)
-    }
-
     /// Closest hit of the ray `o + t d`, `t ∈ (tmin, tmax)`; `d` must be unit length.
     pub fn intersect(&self, o: Vec3A, d: Vec3A, tmin: f32, tmax: f32) -> Option<Hit> {
-        if self.prims.is_empty() {
+        if self.nodes.is_empty() {
             return None;
         }
+        let ray = Ray4::new(self, o, d, tmin, tmax);
         let mut best: Option<Hit> = None;
-        self.traverse(Self::ray(o, d, tmin, tmax), |slot, ray| {
-            // Closest hit: a candidate is accepted only if it shortens the ray.
-            if let Some((t, b)) =
-                self.prims[slot].intersect(ray.origin, ray.direction, ray.tmin, ray.tmax)
-                && t < ray.tmax
-            {
-                ray.tmax = t;
-                best = Some(Hit {
-                    t,
-                    prim: self.slot_to_prim[slot],
-                    b,
-                });
+        let mut tmax = tmax;
+        self.traverse::<true>(&ray, &mut tmax, |leaf, tmax| {
+            for p in &self.packs[leaf.packs.0 as usize..leaf.packs.1 as usize] {
+                let (hit, redo, [t, e1, e2, inv_det]) = ray.triangles(p, *tmax);
+                // Lanes in order, a candidate accepted only if it shortens the ray.
+                for lane in 0..4 {
+                    let found = if hit >> lane & 1 != 0 {
+                        let inv = inv_det[lane];
+                        Some((t[lane], e1[lane] * inv, e2[lane] * inv))
+                    } else if redo >> lane & 1 != 0 {
+                        ray.triangle_lane(p, lane, *tmax)
+                    } else {
+                        None
+                    };
+                    if let Some((t, b1, b2)) = found
+                        && t < *tmax
+                    {
+                        *tmax = t;
+                        best = Some(Hit {
+                            t,
+                            prim: p.prim[lane],
+                            b: [b1, b2],
+                        });
+                    }
+                }
+            }
+            for (prim, index) in &self.others[leaf.others.0 as usize..leaf.others.1 as usize] {
+                if let Some((t, b)) = prim.intersect(o, d, tmin, *tmax) {
+                    *tmax = t;
+                    best = Some(Hit { t, prim: *index, b });
+                }
             }
             false
         });
@@ -187,54 +481,101 @@ impl Accel {
             } else {
                 0
             };
-        if self.prims.len() == skipped {
+        if self.len == skipped {
             return true;
         }
+        let ray = Ray4::new(self, o, d, tmin, tmax);
+        let mut tmax = tmax;
         let mut miss = true;
-        self.traverse(Self::ray(o, d, tmin, tmax), |slot, ray| {
-            // Any hit ends the traversal.
-            miss = on_skipped(self.plane[slot], skip)
-                || self.prims[slot]
-                    .intersect(ray.origin, ray.direction, ray.tmin, ray.tmax)
-                    .is_none_or(|h| h.0 >= ray.tmax);
+        self.traverse::<false>(&ray, &mut tmax, |leaf, tmax| {
+            for p in &self.packs[leaf.packs.0 as usize..leaf.packs.1 as usize] {
+                let (hit, redo, _) = ray.triangles(p, *tmax);
+                let skipped = (0..4).fold(0, |m, lane| {
+                    let key = p.plane[lane];
+                    let on = key != NO_PLANE && (key == skip[0] || key == skip[1]);
+                    m | (on as u32) << lane
+                });
+                let redo = redo & !skipped;
+                if hit & !skipped != 0
+                    || (0..4).any(|lane| {
+                        redo >> lane & 1 != 0 && ray.triangle_lane(p, lane, *tmax).is_some()
+                    })
+                {
+                    miss = false;
+                    return true;
+                }
+            }
+            miss = !self.others[leaf.others.0 as usize..leaf.others.1 as usize]
+                .iter()
+                .any(|(prim, _)| prim.intersect(o, d, tmin, *tmax).is_some());
             !miss
         });
         miss
     }
 
-    /// Traverse the BVH along `ray` on this thread's reused state, calling `visit(slot, ray)` for
-    /// each candidate primitive in traversal order; `visit` may shorten the ray and returns
-    /// whether to stop. A ray near an axis plane visits the nodes its segment's box overlaps.
+    /// Traverse the tree along `ray` on this thread's reused stack, calling `visit(leaf, tmax)`
+    /// for each leaf the ray enters before `tmax`; `visit` may shorten `tmax` and returns whether
+    /// to stop. With `NEAREST_FIRST` (closest hits) children are visited front to back and a
+    /// popped node beyond `tmax` is skipped; without (any hit) in lane order.
     #[inline]
-    fn traverse(&self, mut ray: Ray, mut visit: impl FnMut(usize, &mut Ray) -> bool) {
-        let segment = near_axis_plane(ray.direction).then(|| self.segment_box(&ray));
-        TRAVERSAL.with_borrow_mut(|state| {
-            state.reinit(ray.direction);
-            let mut node;
-            // Out of the macro's loops.
-            'stop: {
-                obvhs::traverse!(
-                    self.bvh,
-                    node,
-                    state,
-                    match &segment {
-                        Some(b) => node.intersect_aabb(b, state.oct_inv4),
-                        None => node.intersect_ray(&ray, state.oct_inv4),
-                    },
-                    {
-                        if visit(state.primitive_id as usize, &mut ray) {
-                            break 'stop;
-                        }
+    fn traverse<const NEAREST_FIRST: bool>(
+        &self,
+        ray: &Ray4,
+        tmax: &mut f32,
+        mut visit: impl FnMut(&Leaf, &mut f32) -> bool,
+    ) {
+        STACK.with_borrow_mut(|stack| {
+            stack.clear();
+            let mut code = 0u32;
+            loop {
+                if code & LEAF != 0 {
+                    if visit(&self.leaves[(code & !LEAF) as usize], tmax) {
+                        return;
                     }
-                );
+                } else {
+                    let node = &self.nodes[code as usize];
+                    let (mut mask, near) = ray.enter(node, *tmax);
+                    if mask != 0 {
+                        // Go on with the nearest entered child; push the others farthest first.
+                        let mut entered = [(0u32, 0f32); 4];
+                        let mut n = 0;
+                        while mask != 0 {
+                            let lane = mask.trailing_zeros() as usize;
+                            mask &= mask - 1;
+                            let t = near[lane];
+                            let mut at = n;
+                            while NEAREST_FIRST && at > 0 && entered[at - 1].1 < t {
+                                entered[at] = entered[at - 1];
+                                at -= 1;
+                            }
+                            entered[at] = (node.child[lane], t);
+                            n += 1;
+                        }
+                        for &e in &entered[..n - 1] {
+                            stack.push(e);
+                        }
+                        code = entered[n - 1].0;
+                        continue;
+                    }
+                }
+                // The next node on the stack still in reach.
+                loop {
+                    match stack.pop() {
+                        None => return,
+                        Some((c, t)) if !NEAREST_FIRST || t <= *tmax => {
+                            code = c;
+                            break;
+                        }
+                        Some(_) => {}
+                    }
+                }
             }
         });
     }
 
-    /// The bounding box of the segment of `ray` inside the scene's bounds, padded by rounding: it
-    /// overlaps the box of every primitive the segment meets.
-    fn segment_box(&self, ray: &Ray) -> Aabb {
-        let (o, d) = (ray.origin, ray.direction);
+    /// The bounding box of the segment `o + t d`, `t ∈ (tmin, tmax)`, inside the scene's bounds,
+    /// padded by rounding: it overlaps the box of every primitive the segment meets.
+    fn segment_box(&self, o: Vec3A, d: Vec3A, tmin: f32, tmax: f32) -> (Vec3A, Vec3A) {
         // Where the ray leaves the scene's bounds, along the axes it moves on.
         let exit = (0..3)
             .filter(|&a| d[a] != 0.0)
@@ -246,11 +587,11 @@ impl Accel {
                 };
                 (far - o[a]) / d[a]
             })
-            .fold(ray.tmax, f32::min)
-            .max(ray.tmin);
-        let (a, b) = (o + ray.tmin * d, o + exit * d);
+            .fold(tmax, f32::min)
+            .max(tmin);
+        let (a, b) = (o + tmin * d, o + exit * d);
         let pad = 1e-5 * (1.0 + a.abs().max(b.abs()).max_element());
-        Aabb::new(a.min(b) - pad, a.max(b) + pad)
+        (a.min(b) - pad, a.max(b) + pad)
     }
 }
 
