@@ -139,8 +139,9 @@ struct Ray4 {
     org: [Vec4; 3],
     inv: [Vec4; 3],
     neg: [bool; 3],
-    /// Near an axis plane: the box of the segment, tested for overlap instead.
-    segment: Option<([Vec4; 3], [Vec4; 3])>,
+    /// Near an axis plane: the box of the segment per axis (low and high, splat), tested for
+    /// overlap instead.
+    segment: Option<[[Vec4; 3]; 2]>,
     /// Watertight test: the axes permuted so that z is the dominant direction component, the
     /// permuted origin and the shear (sx, sy, sz), each splat over the lanes.
     k: [usize; 3],
@@ -149,6 +150,7 @@ struct Ray4 {
 }
 
 impl Ray4 {
+    #[inline]
     fn new(accel: &Accel, o: Vec3A, d: Vec3A, tmin: f32, tmax: f32) -> Self {
         // The permutation and shear of `intersect_triangle`.
         let ad = d.abs();
@@ -162,13 +164,7 @@ impl Ray4 {
         let kx = (kz + 1) % 3;
         let ky = (kx + 1) % 3;
         let (sx, sy, sz) = (-d[kx] / d[kz], -d[ky] / d[kz], 1.0 / d[kz]);
-        let segment = near_axis_plane(d).then(|| {
-            let (lo, hi) = accel.segment_box(o, d, tmin, tmax);
-            (
-                lo.to_array().map(Vec4::splat),
-                hi.to_array().map(Vec4::splat),
-            )
-        });
+        let segment = near_axis_plane(d).then(|| accel.segment_box(o, d, tmin, tmax));
         Self {
             o,
             d,
@@ -186,7 +182,8 @@ impl Ray4 {
     /// Which of `node`'s children the ray enters before `tmax` (bit per lane), and where.
     #[inline]
     fn enter(&self, node: &Node, tmax: f32) -> (u32, Vec4) {
-        if let Some((lo, hi)) = &self.segment {
+        if let Some(segment) = &self.segment {
+            let [lo, hi] = segment;
             let mut hit = BVec4A::splat(true);
             for a in 0..3 {
                 hit &= node.lo[a].cmple(hi[a]) & node.hi[a].cmpge(lo[a]);
@@ -575,7 +572,8 @@ impl Accel {
 
     /// The bounding box of the segment `o + t d`, `t ∈ (tmin, tmax)`, inside the scene's bounds,
     /// padded by rounding: it overlaps the box of every primitive the segment meets.
-    fn segment_box(&self, o: Vec3A, d: Vec3A, tmin: f32, tmax: f32) -> (Vec3A, Vec3A) {
+    #[cold]
+    fn segment_box(&self, o: Vec3A, d: Vec3A, tmin: f32, tmax: f32) -> [[Vec4; 3]; 2] {
         // Where the ray leaves the scene's bounds, along the axes it moves on.
         let exit = (0..3)
             .filter(|&a| d[a] != 0.0)
@@ -591,7 +589,8 @@ impl Accel {
             .max(tmin);
         let (a, b) = (o + tmin * d, o + exit * d);
         let pad = 1e-5 * (1.0 + a.abs().max(b.abs()).max_element());
-        (a.min(b) - pad, a.max(b) + pad)
+        let splat = |v: Vec3A| v.to_array().map(Vec4::splat);
+        [splat(a.min(b) - pad), splat(a.max(b) + pad)]
     }
 }
 
