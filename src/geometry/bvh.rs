@@ -54,18 +54,31 @@ fn near_axis_plane(d: Vec3A) -> bool {
 const LEAF: u32 = 1 << 31;
 /// An unused child slot (its box is empty, so no ray or segment enters it).
 const EMPTY: u32 = u32::MAX;
-/// Triangles per leaf at most (one or two packs), as obvhs' collapse of the binary tree makes them.
+/// A binary subtree with at most this many primitives becomes one leaf (one pack of triangles).
 const LEAF_PRIMS: u32 = 4;
 /// 1 + 2γ₃ (pbrt-v4): the factor that makes the slab test conservative under rounding.
 const SLAB_PAD: f32 = 1.0 + 2.0 * (3.0 * f32::EPSILON * 0.5) / (1.0 - 3.0 * f32::EPSILON * 0.5);
 
-/// A node: its four children's boxes, one child per lane (`lo[axis]`, `hi[axis]`).
+/// A node: its four children's boxes, one child per lane: `b[axis]` the low and `b[3 + axis]`
+/// the high bounds.
 #[derive(Clone, Copy)]
 struct Node {
-    lo: [Vec4; 3],
-    hi: [Vec4; 3],
+    b: [Vec4; 6],
     child: [u32; 4],
 }
+
+/// A node with four unused lanes (empty boxes: low +∞, high −∞).
+const EMPTY_NODE: Node = Node {
+    b: [
+        Vec4::INFINITY,
+        Vec4::INFINITY,
+        Vec4::INFINITY,
+        Vec4::NEG_INFINITY,
+        Vec4::NEG_INFINITY,
+        Vec4::NEG_INFINITY,
+    ],
+    child: [EMPTY; 4],
+};
 
 /// Four triangles, one per lane: `v[vertex][axis]`.
 #[derive(Clone, Copy)]
@@ -186,7 +199,7 @@ impl Ray4 {
             let [lo, hi] = segment;
             let mut hit = BVec4A::splat(true);
             for a in 0..3 {
-                hit &= node.lo[a].cmple(hi[a]) & node.hi[a].cmpge(lo[a]);
+                hit &= node.b[a].cmple(hi[a]) & node.b[3 + a].cmpge(lo[a]);
             }
             return (hit.bitmask(), Vec4::splat(self.tmin));
         }
@@ -194,9 +207,9 @@ impl Ray4 {
         let mut far = Vec4::splat(tmax);
         for a in 0..3 {
             let (n, f) = if self.neg[a] {
-                (node.hi[a], node.lo[a])
+                (node.b[3 + a], node.b[a])
             } else {
-                (node.lo[a], node.hi[a])
+                (node.b[a], node.b[3 + a])
             };
             near = near.max((n - self.org[a]) * self.inv[a]);
             far = far.min((f - self.org[a]) * self.inv[a] * SLAB_PAD);
@@ -244,7 +257,8 @@ impl Ray4 {
     }
 }
 
-/// Builds the 4-wide tree from obvhs' binary one.
+/// Builds the 4-wide tree from obvhs' binary one, without recursion (degenerate input, such as
+/// thousands of coincident triangles, makes a deep binary tree).
 struct Collapse<'a> {
     bvh2: &'a Bvh2,
     prims: &'a [Prim],
@@ -255,25 +269,63 @@ struct Collapse<'a> {
     others: Vec<(Prim, u32)>,
 }
 
-impl Collapse<'_> {
-    /// The code of binary node `i` as a child.
-    fn child(&mut self, i: usize) -> u32 {
-        if self.bvh2.nodes[i].is_leaf() {
-            self.leaf(i)
+impl<'a> Collapse<'a> {
+    fn new(bvh2: &'a Bvh2, prims: &'a [Prim], plane: &'a dyn Fn(usize) -> u32) -> Self {
+        Self {
+            bvh2,
+            prims,
+            plane,
+            nodes: Vec::new(),
+            leaves: Vec::new(),
+            packs: Vec::new(),
+            others: Vec::new(),
+        }
+    }
+
+    /// Whether binary node `i` becomes a leaf: a leaf of the binary tree (obvhs' collapse makes
+    /// leaves of up to [`LEAF_PRIMS`] primitives where the surface-area heuristic prefers them).
+    fn is_leaf(&self, i: usize) -> bool {
+        self.bvh2.nodes[i].is_leaf()
+    }
+
+    /// Collapse the whole tree; node 0 is the root.
+    fn run(&mut self) {
+        let root = if self.is_leaf(0) {
+            vec![0]
         } else {
-            self.node(&self.open(i))
+            self.open(0)
+        };
+        self.nodes.push(EMPTY_NODE);
+        let mut todo = vec![(0usize, root)];
+        while let Some((id, kids)) = todo.pop() {
+            let mut node = EMPTY_NODE;
+            for (lane, &k) in kids.iter().enumerate() {
+                let bounds = *self.bvh2.nodes[k].aabb();
+                for a in 0..3 {
+                    node.b[a][lane] = bounds.min[a];
+                    node.b[3 + a][lane] = bounds.max[a];
+                }
+                node.child[lane] = if self.is_leaf(k) {
+                    self.leaf(k)
+                } else {
+                    self.nodes.push(EMPTY_NODE);
+                    todo.push((self.nodes.len() - 1, self.open(k)));
+                    (self.nodes.len() - 1) as u32
+                };
+            }
+            self.nodes[id] = node;
         }
     }
 
     /// Up to four binary descendants of inner node `i` that cover it: its children, then,
-    /// while fewer than four, the children of the largest inner one instead of it.
+    /// while fewer than four, the children of the largest one that is no leaf instead of it.
     fn open(&self, i: usize) -> Vec<usize> {
         let nodes = &self.bvh2.nodes;
         let first = nodes[i].first_index as usize;
         let mut kids = vec![first, first + 1];
         while kids.len() < 4 {
             let Some(at) = (0..kids.len())
-                .filter(|&k| !nodes[kids[k]].is_leaf())
+                .filter(|&k| !self.is_leaf(kids[k]))
                 .max_by(|&a, &b| {
                     let area = |k: usize| nodes[kids[k]].aabb().half_area();
                     area(a).total_cmp(&area(b))
@@ -288,38 +340,11 @@ impl Collapse<'_> {
         kids
     }
 
-    /// A 4-wide node over the binary nodes `kids`; returns its index.
-    fn node(&mut self, kids: &[usize]) -> u32 {
-        let id = self.nodes.len();
-        self.nodes.push(Node {
-            lo: [Vec4::INFINITY; 3],
-            hi: [Vec4::NEG_INFINITY; 3],
-            child: [EMPTY; 4],
-        });
-        let mut lo = [[f32::INFINITY; 4]; 3];
-        let mut hi = [[f32::NEG_INFINITY; 4]; 3];
-        let mut child = [EMPTY; 4];
-        for (lane, &k) in kids.iter().enumerate() {
-            let b = *self.bvh2.nodes[k].aabb();
-            for a in 0..3 {
-                lo[a][lane] = b.min[a];
-                hi[a][lane] = b.max[a];
-            }
-            child[lane] = self.child(k);
-        }
-        self.nodes[id] = Node {
-            lo: lo.map(Vec4::from_array),
-            hi: hi.map(Vec4::from_array),
-            child,
-        };
-        id as u32
-    }
-
     /// The leaf of binary leaf `i`: its triangles in packs of four, its other primitives apart.
     fn leaf(&mut self, i: usize) -> u32 {
+        let (first_pack, first_other) = (self.packs.len() as u32, self.others.len() as u32);
         let n = &self.bvh2.nodes[i];
         let range = n.first_index as usize..(n.first_index + n.prim_count) as usize;
-        let (first_pack, first_other) = (self.packs.len() as u32, self.others.len() as u32);
         let mut lanes = 0;
         for &index in &self.bvh2.primitive_indices[range] {
             let prim = self.prims[index as usize];
@@ -338,9 +363,7 @@ impl Collapse<'_> {
             let (pack, lane) = (self.packs.last_mut().unwrap(), lanes % 4);
             for (k, vk) in v.iter().enumerate() {
                 for a in 0..3 {
-                    let mut lane_values = pack.v[k][a].to_array();
-                    lane_values[lane] = vk[a];
-                    pack.v[k][a] = Vec4::from_array(lane_values);
+                    pack.v[k][a][lane] = vk[a];
                 }
             }
             pack.prim[lane] = index;
@@ -369,6 +392,8 @@ impl Accel {
             let s = prim_shape[i];
             if planar[s as usize] { s } else { NO_PLANE }
         };
+        // The binary tree: PLOC (Meister and Bittner 2018), reinsertion, leaves of up to four
+        // primitives where the surface-area heuristic prefers them, reinsertion again.
         let bvh2 = build_bvh2(
             prims,
             BvhBuildParams {
@@ -377,23 +402,9 @@ impl Accel {
             },
             &mut Default::default(),
         );
-        let mut c = Collapse {
-            bvh2: &bvh2,
-            prims,
-            plane: &plane,
-            nodes: Vec::new(),
-            leaves: Vec::new(),
-            packs: Vec::new(),
-            others: Vec::new(),
-        };
+        let mut c = Collapse::new(&bvh2, prims, &plane);
         if !prims.is_empty() {
-            // The root is node 0, also when the binary tree is a single leaf.
-            if bvh2.nodes[0].is_leaf() {
-                c.node(&[0]);
-            } else {
-                let kids = c.open(0);
-                c.node(&kids);
-            }
+            c.run();
         }
         let (nodes, leaves, packs, others) = (c.nodes, c.leaves, c.packs, c.others);
         Self {
