@@ -6,8 +6,8 @@
 //!
 //! The tree's shape comes from obvhs' (0.4) binary PLOC builder with reinsertion
 //! ([`build_bvh2`]); it is collapsed here to four children per node, always opening the child
-//! with the largest surface. Traversal is front to back: a popped node farther than the closest
-//! hit so far is skipped.
+//! with the largest surface, without recursion. Closest-hit traversal is front to back (a popped
+//! node farther than the closest hit so far is skipped); shadow rays stop at the first hit.
 //!
 //! Three points keep hits exact:
 //! - triangles use the watertight test (Woop, Benthin and Wald 2013) lane by lane with the very
@@ -20,7 +20,7 @@
 //!   ill-conditioned: they visit every node whose box overlaps the box of their segment (clipped
 //!   to the scene), which is conservative and few nodes for a ray along an axis.
 
-use super::{Hit, Prim, intersect_triangle};
+use super::{Hit, Prim, intersect_triangle, watertight_shear};
 use glam::{BVec4A, Vec3A, Vec4};
 use obvhs::{
     Boundable, BvhBuildParams,
@@ -54,7 +54,8 @@ fn near_axis_plane(d: Vec3A) -> bool {
 const LEAF: u32 = 1 << 31;
 /// An unused child slot (its box is empty, so no ray or segment enters it).
 const EMPTY: u32 = u32::MAX;
-/// A binary subtree with at most this many primitives becomes one leaf (one pack of triangles).
+/// At most this many primitives per leaf (one pack of triangles): obvhs' collapse of the binary
+/// tree makes such leaves where the surface-area heuristic prefers them.
 const LEAF_PRIMS: u32 = 4;
 /// 1 + 2γ₃ (pbrt-v4): the factor that makes the slab test conservative under rounding.
 const SLAB_PAD: f32 = 1.0 + 2.0 * (3.0 * f32::EPSILON * 0.5) / (1.0 - 3.0 * f32::EPSILON * 0.5);
@@ -155,28 +156,33 @@ struct Ray4 {
     /// Near an axis plane: the box of the segment per axis (low and high, splat), tested for
     /// overlap instead.
     segment: Option<[[Vec4; 3]; 2]>,
-    /// Watertight test: the axes permuted so that z is the dominant direction component, the
-    /// permuted origin and the shear (sx, sy, sz), each splat over the lanes.
+}
+
+/// The watertight test's part of a ray (made on its first triangle pack: many shadow rays meet
+/// none): the axes permuted so that z is the dominant direction component, the permuted origin
+/// and the shear (sx, sy, sz), each splat over the lanes.
+struct Shear4 {
     k: [usize; 3],
     ko: [Vec4; 3],
-    shear: [Vec4; 3],
+    s: [Vec4; 3],
+}
+
+impl Shear4 {
+    #[inline]
+    fn new(o: Vec3A, d: Vec3A) -> Self {
+        // The permutation and shear of `intersect_triangle`.
+        let ([kx, ky, kz], shear) = watertight_shear(d);
+        Self {
+            k: [kx, ky, kz],
+            ko: [o[kx], o[ky], o[kz]].map(Vec4::splat),
+            s: shear.map(Vec4::splat),
+        }
+    }
 }
 
 impl Ray4 {
     #[inline]
     fn new(accel: &Accel, o: Vec3A, d: Vec3A, tmin: f32, tmax: f32) -> Self {
-        // The permutation and shear of `intersect_triangle`.
-        let ad = d.abs();
-        let kz = if ad.x > ad.y {
-            if ad.x > ad.z { 0 } else { 2 }
-        } else if ad.y > ad.z {
-            1
-        } else {
-            2
-        };
-        let kx = (kz + 1) % 3;
-        let ky = (kx + 1) % 3;
-        let (sx, sy, sz) = (-d[kx] / d[kz], -d[ky] / d[kz], 1.0 / d[kz]);
         let segment = near_axis_plane(d).then(|| accel.segment_box(o, d, tmin, tmax));
         Self {
             o,
@@ -186,9 +192,6 @@ impl Ray4 {
             inv: d.recip().to_array().map(Vec4::splat),
             neg: d.to_array().map(|c| c < 0.0),
             segment,
-            k: [kx, ky, kz],
-            ko: [o[kx], o[ky], o[kz]].map(Vec4::splat),
-            shear: [sx, sy, sz].map(Vec4::splat),
         }
     }
 
@@ -221,15 +224,11 @@ impl Ray4 {
     /// with their distance, and the lanes to redo in the scalar test (an edge function is zero).
     /// Each lane runs the operations of [`intersect_triangle`] in its order.
     #[inline]
-    fn triangles(&self, p: &TriPack, tmax: f32) -> (u32, u32, [Vec4; 4]) {
-        let [kx, ky, kz] = self.k;
+    fn triangles(&self, sh: &Shear4, p: &TriPack, tmax: f32) -> (u32, u32, [Vec4; 4]) {
+        let [kx, ky, kz] = sh.k;
         let vertex = |v: &[Vec4; 3]| {
-            let (x, y, z) = (v[kx] - self.ko[0], v[ky] - self.ko[1], v[kz] - self.ko[2]);
-            (
-                x + self.shear[0] * z,
-                y + self.shear[1] * z,
-                z * self.shear[2],
-            )
+            let (x, y, z) = (v[kx] - sh.ko[0], v[ky] - sh.ko[1], v[kz] - sh.ko[2]);
+            (x + sh.s[0] * z, y + sh.s[1] * z, z * sh.s[2])
         };
         let (p0, p1, p2) = (vertex(&p.v[0]), vertex(&p.v[1]), vertex(&p.v[2]));
         let e0 = p1.0 * p2.1 - p1.1 * p2.0;
@@ -436,9 +435,11 @@ impl Accel {
         let ray = Ray4::new(self, o, d, tmin, tmax);
         let mut best: Option<Hit> = None;
         let mut tmax = tmax;
+        let mut shear = None;
         self.traverse::<true>(&ray, &mut tmax, |leaf, tmax| {
             for p in &self.packs[leaf.packs.0 as usize..leaf.packs.1 as usize] {
-                let (hit, redo, [t, e1, e2, inv_det]) = ray.triangles(p, *tmax);
+                let sh = shear.get_or_insert_with(|| Shear4::new(o, d));
+                let (hit, redo, [t, e1, e2, inv_det]) = ray.triangles(sh, p, *tmax);
                 // Lanes in order, a candidate accepted only if it shortens the ray.
                 for lane in 0..4 {
                     let found = if hit >> lane & 1 != 0 {
@@ -495,9 +496,11 @@ impl Accel {
         let ray = Ray4::new(self, o, d, tmin, tmax);
         let mut tmax = tmax;
         let mut miss = true;
+        let mut shear = None;
         self.traverse::<false>(&ray, &mut tmax, |leaf, tmax| {
             for p in &self.packs[leaf.packs.0 as usize..leaf.packs.1 as usize] {
-                let (hit, redo, _) = ray.triangles(p, *tmax);
+                let sh = shear.get_or_insert_with(|| Shear4::new(o, d));
+                let (hit, redo, _) = ray.triangles(sh, p, *tmax);
                 let skipped = (0..4).fold(0, |m, lane| {
                     let key = p.plane[lane];
                     let on = key != NO_PLANE && (key == skip[0] || key == skip[1]);

@@ -81,6 +81,23 @@ impl Interaction {
     }
 }
 
+/// The ray-dependent part of the watertight triangle test: the axes permuted so that the largest
+/// |d| component comes last (z), and the shear (sx, sy, sz) that maps `d` to +z.
+#[inline]
+pub(crate) fn watertight_shear(d: Vec3A) -> ([usize; 3], [f32; 3]) {
+    let ad = d.abs();
+    let kz = if ad.x > ad.y {
+        if ad.x > ad.z { 0 } else { 2 }
+    } else if ad.y > ad.z {
+        1
+    } else {
+        2
+    };
+    let kx = (kz + 1) % 3;
+    let ky = (kx + 1) % 3;
+    ([kx, ky, kz], [-d[kx] / d[kz], -d[ky] / d[kz], 1.0 / d[kz]])
+}
+
 /// Watertight ray–triangle test (Woop, Benthin and Wald 2013, "Watertight ray/triangle
 /// intersection"; the form of pbrt-v4's `IntersectTriangle`): translate to the ray origin, permute
 /// so the dominant direction axis is z, shear, and evaluate the edge functions, falling back to f64
@@ -93,20 +110,8 @@ pub fn intersect_triangle(
     tmax: f32,
     p: &[Vec3A; 3],
 ) -> Option<(f32, f32, f32)> {
-    // Permute so that the largest |d| component is z.
-    let ad = d.abs();
-    let kz = if ad.x > ad.y {
-        if ad.x > ad.z { 0 } else { 2 }
-    } else if ad.y > ad.z {
-        1
-    } else {
-        2
-    };
-    let kx = (kz + 1) % 3;
-    let ky = (kx + 1) % 3;
+    let ([kx, ky, kz], [sx, sy, sz]) = watertight_shear(d);
     let perm = |v: Vec3A| Vec3A::new(v[kx], v[ky], v[kz]);
-    let dp = perm(d);
-    let (sx, sy, sz) = (-dp.x / dp.z, -dp.y / dp.z, 1.0 / dp.z);
     // Translate vertices to the ray origin, permute and shear.
     let shear = |v: Vec3A| {
         let v = perm(v - o);
