@@ -316,3 +316,24 @@ fn skipping_the_end_planes_changes_no_answer() {
         assert_eq!(blocked > n / 20, with_occluder, "{blocked}");
     }
 }
+
+#[test]
+fn coincident_triangles_make_a_deep_tree_that_still_works() {
+    // Thousands of copies of one triangle: the binary builder makes a deep tree, which the
+    // 4-wide collapse must take without recursion; every ray through the triangle hits.
+    let t = Prim::triangle([
+        Vec3A::new(0.0, 0.0, 1.0),
+        Vec3A::new(1.0, 0.0, 1.0),
+        Vec3A::new(0.0, 1.0, 1.0),
+    ]);
+    let accel = build(&vec![t; 3000]);
+    let (o, d) = (Vec3A::new(0.25, 0.25, 0.0), Vec3A::Z);
+    let hit = accel.intersect(o, d, 0.0, f32::INFINITY).expect("missed");
+    assert!((hit.t - 1.0).abs() < 1e-6 && hit.prim < 3000);
+    assert!(!accel.unoccluded(o, d, 0.0, 2.0, NONE));
+    assert!(
+        accel
+            .intersect(Vec3A::new(0.75, 0.75, 0.0), d, 0.0, f32::INFINITY)
+            .is_none()
+    );
+}
