@@ -501,6 +501,9 @@ impl Accel {
             for p in &self.packs[leaf.packs.0 as usize..leaf.packs.1 as usize] {
                 let sh = shear.get_or_insert_with(|| Shear4::new(o, d));
                 let (hit, redo, _) = ray.triangles(sh, p, *tmax);
+                if hit | redo == 0 {
+                    continue;
+                }
                 let skipped = (0..4).fold(0, |m, lane| {
                     let key = p.plane[lane];
                     let on = key != NO_PLANE && (key == skip[0] || key == skip[1]);
