@@ -60,24 +60,17 @@ const LEAF_PRIMS: u32 = 4;
 /// 1 + 2γ₃ (pbrt-v4): the factor that makes the slab test conservative under rounding.
 const SLAB_PAD: f32 = 1.0 + 2.0 * (3.0 * f32::EPSILON * 0.5) / (1.0 - 3.0 * f32::EPSILON * 0.5);
 
-/// A node: its four children's boxes, one child per lane: `b[axis]` the low and `b[3 + axis]`
-/// the high bounds.
+/// A node: its four children's boxes, one child per lane: `b[0][axis]` the low and
+/// `b[1][axis]` the high bounds.
 #[derive(Clone, Copy)]
 struct Node {
-    b: [Vec4; 6],
+    b: [[Vec4; 3]; 2],
     child: [u32; 4],
 }
 
 /// A node with four unused lanes (empty boxes: low +∞, high −∞).
 const EMPTY_NODE: Node = Node {
-    b: [
-        Vec4::INFINITY,
-        Vec4::INFINITY,
-        Vec4::INFINITY,
-        Vec4::NEG_INFINITY,
-        Vec4::NEG_INFINITY,
-        Vec4::NEG_INFINITY,
-    ],
+    b: [[Vec4::INFINITY; 3], [Vec4::NEG_INFINITY; 3]],
     child: [EMPTY; 4],
 };
 
@@ -149,7 +142,8 @@ struct Ray4 {
     o: Vec3A,
     d: Vec3A,
     tmin: f32,
-    /// Slab test: origin and inverse direction per axis, and whether the direction is negative.
+    /// Slab test: origin and inverse direction per axis, and whether the direction is negative
+    /// (the ray meets the high bound first).
     org: [Vec4; 3],
     inv: [Vec4; 3],
     neg: [bool; 3],
@@ -202,7 +196,7 @@ impl Ray4 {
             let [lo, hi] = segment;
             let mut hit = BVec4A::splat(true);
             for a in 0..3 {
-                hit &= node.b[a].cmple(hi[a]) & node.b[3 + a].cmpge(lo[a]);
+                hit &= node.b[0][a].cmple(hi[a]) & node.b[1][a].cmpge(lo[a]);
             }
             return (hit.bitmask(), Vec4::splat(self.tmin));
         }
@@ -210,9 +204,9 @@ impl Ray4 {
         let mut far = Vec4::splat(tmax);
         for a in 0..3 {
             let (n, f) = if self.neg[a] {
-                (node.b[3 + a], node.b[a])
+                (node.b[1][a], node.b[0][a])
             } else {
-                (node.b[a], node.b[3 + a])
+                (node.b[0][a], node.b[1][a])
             };
             near = near.max((n - self.org[a]) * self.inv[a]);
             far = far.min((f - self.org[a]) * self.inv[a] * SLAB_PAD);
@@ -249,7 +243,9 @@ impl Ray4 {
         (hit, exact_zero, [t, e1, e2, inv_det])
     }
 
-    /// The scalar watertight test on lane `lane` of `p`.
+    /// The scalar watertight test on lane `lane` of `p` (rare: an edge function was exactly zero).
+    #[cold]
+    #[inline(never)]
     fn triangle_lane(&self, p: &TriPack, lane: usize, tmax: f32) -> Option<(f32, f32, f32)> {
         let v = p.v.map(|v| Vec3A::new(v[0][lane], v[1][lane], v[2][lane]));
         intersect_triangle(self.o, self.d, self.tmin, tmax, &v)
@@ -301,8 +297,8 @@ impl<'a> Collapse<'a> {
             for (lane, &k) in kids.iter().enumerate() {
                 let bounds = *self.bvh2.nodes[k].aabb();
                 for a in 0..3 {
-                    node.b[a][lane] = bounds.min[a];
-                    node.b[3 + a][lane] = bounds.max[a];
+                    node.b[0][a][lane] = bounds.min[a];
+                    node.b[1][a][lane] = bounds.max[a];
                 }
                 node.child[lane] = if self.is_leaf(k) {
                     self.leaf(k)
@@ -440,15 +436,17 @@ impl Accel {
             for p in &self.packs[leaf.packs.0 as usize..leaf.packs.1 as usize] {
                 let sh = shear.get_or_insert_with(|| Shear4::new(o, d));
                 let (hit, redo, [t, e1, e2, inv_det]) = ray.triangles(sh, p, *tmax);
-                // Lanes in order, a candidate accepted only if it shortens the ray.
-                for lane in 0..4 {
+                // The lanes hit or to redo, in order, a candidate accepted only if it shortens
+                // the ray.
+                let mut lanes = hit | redo;
+                while lanes != 0 {
+                    let lane = lanes.trailing_zeros() as usize;
+                    lanes &= lanes - 1;
                     let found = if hit >> lane & 1 != 0 {
                         let inv = inv_det[lane];
                         Some((t[lane], e1[lane] * inv, e2[lane] * inv))
-                    } else if redo >> lane & 1 != 0 {
-                        ray.triangle_lane(p, lane, *tmax)
                     } else {
-                        None
+                        ray.triangle_lane(p, lane, *tmax)
                     };
                     if let Some((t, b1, b2)) = found
                         && t < *tmax
