@@ -142,11 +142,10 @@ struct Ray4 {
     o: Vec3A,
     d: Vec3A,
     tmin: f32,
-    /// Slab test: origin and inverse direction per axis, and whether the direction is negative
-    /// (the ray meets the high bound first).
+    /// Slab test: origin and inverse direction per axis (splat). Where the inverse direction is
+    /// negative the ray meets the high bound first.
     org: [Vec4; 3],
     inv: [Vec4; 3],
-    neg: [bool; 3],
     /// Near an axis plane: the box of the segment per axis (low and high, splat), tested for
     /// overlap instead.
     segment: Option<[[Vec4; 3]; 2]>,
@@ -184,7 +183,6 @@ impl Ray4 {
             tmin,
             org: o.to_array().map(Vec4::splat),
             inv: d.recip().to_array().map(Vec4::splat),
-            neg: d.to_array().map(|c| c < 0.0),
             segment,
         }
     }
@@ -203,7 +201,9 @@ impl Ray4 {
         let mut near = Vec4::splat(self.tmin);
         let mut far = Vec4::splat(tmax);
         for a in 0..3 {
-            let (n, f) = if self.neg[a] {
+            // (Read from `inv`, not kept as flags beside `tmin`: the ray's fields are copied as
+            // one 16-byte word, and flags stored byte by byte stall that load.)
+            let (n, f) = if self.inv[a].x < 0.0 {
                 (node.b[1][a], node.b[0][a])
             } else {
                 (node.b[0][a], node.b[1][a])
@@ -442,21 +442,26 @@ impl Accel {
                 while lanes != 0 {
                     let lane = lanes.trailing_zeros() as usize;
                     lanes &= lanes - 1;
+                    let prim = p.prim[lane];
                     let found = if hit >> lane & 1 != 0 {
                         let inv = inv_det[lane];
-                        Some((t[lane], e1[lane] * inv, e2[lane] * inv))
-                    } else {
-                        ray.triangle_lane(p, lane, *tmax)
-                    };
-                    if let Some((t, b1, b2)) = found
-                        && t < *tmax
-                    {
-                        *tmax = t;
-                        best = Some(Hit {
+                        Hit {
+                            t: t[lane],
+                            prim,
+                            b: [e1[lane] * inv, e2[lane] * inv],
+                        }
+                    } else if let Some((t, b1, b2)) = ray.triangle_lane(p, lane, *tmax) {
+                        Hit {
                             t,
-                            prim: p.prim[lane],
+                            prim,
                             b: [b1, b2],
-                        });
+                        }
+                    } else {
+                        continue;
+                    };
+                    if found.t < *tmax {
+                        *tmax = found.t;
+                        best = Some(found);
                     }
                 }
             }
