@@ -2,7 +2,8 @@
 side and their renders of one workload alternate, so both meet the same machine state. On a
 machine whose cores change speed from second to second (this project's drifts by up to 1.5x), two
 builds timed in separate runs differ by more than most changes do; alternated in one process, the
-median ratio of each pair of renders repeats to within about 3 % (the same two builds on the Cornell box: 1.053, 1.032 and 1.067).
+median ratio of each pair of renders repeats to within about 3 % (the same two builds on the
+Cornell box: 1.053, 1.032 and 1.067).
 
     pip install --no-deps --target /tmp/a .   # build A (then check out B and build it to /tmp/b)
     python benchmarks/ab.py /tmp/a /tmp/b cornell_los [--spp 256] [--rounds 20] [--threads 1]
