@@ -114,7 +114,13 @@ impl<'a> PathTracer<'a> {
     fn light_pdf(&self, sampler: &AreaSampler, x: Vec3A, y: Vec3A, ng: Vec3A) -> f32 {
         let v = y - x;
         let r2 = v.length_squared();
-        let cos = ng.dot(v).abs() / r2.sqrt();
+        self.light_pdf_at(sampler, v, r2, r2.sqrt(), ng)
+    }
+
+    /// [`Self::light_pdf`] from `v` = y − x, its squared length and its length.
+    #[inline]
+    fn light_pdf_at(&self, sampler: &AreaSampler, v: Vec3A, r2: f32, r: f32, ng: Vec3A) -> f32 {
+        let cos = ng.dot(v).abs() / r;
         if cos <= 0.0 {
             0.0
         } else {
@@ -134,13 +140,13 @@ impl<'a> PathTracer<'a> {
         let (x, wi, beta, opl, eta) = (&path.it, path.wi, path.beta, path.opl, path.eta);
         let n = self.emitters.len();
         let k = ((rng.next_1d() * n as f32) as usize).min(n - 1);
-        let (target, le_over_pdf, mis_w) = match &self.emitters[k] {
+        let (target, le_over_pdf, mis_w, dist) = match &self.emitters[k] {
             Emitter::Point {
                 position,
                 intensity,
             } => {
                 let r2 = (*position - x.p).length_squared();
-                (*position, *intensity * (n as f32 / r2), 1.0)
+                (*position, *intensity * (n as f32 / r2), 1.0, r2.sqrt())
             }
             Emitter::Area {
                 sampler,
@@ -148,19 +154,23 @@ impl<'a> PathTracer<'a> {
                 falloff,
             } => {
                 let y = sampler.sample(self.scene, rng);
-                let w = (x.p - y.p).normalize();
+                // The direction to x, its length and squared length, each computed once (as
+                // `normalize`, `length` and `length_squared` would: the same bits).
+                let to_x = x.p - y.p;
+                let r2 = to_x.length_squared();
+                let r = r2.sqrt();
+                let w = to_x / r;
                 if y.ns.dot(w) <= 0.0 {
                     return; // the back of a one-sided area light
                 }
                 let Some(le) = emitted(*radiance, *falloff, y.ns.dot(w)) else {
                     return;
                 };
-                let pdf = self.light_pdf(sampler, x.p, y.p, y.ng);
-                (y.p, le / pdf, mis(pdf, bsdf.pdf(x.ns, wi, -w)))
+                let pdf = self.light_pdf_at(sampler, -to_x, r2, r, y.ng);
+                (y.p, le / pdf, mis(pdf, bsdf.pdf(x.ns, wi, -w)), r)
             }
         };
         let v = target - x.p;
-        let dist = v.length();
         let Some(f) = bsdf.eval(x.ns, wi, v / dist) else {
             return;
         };
