@@ -1,10 +1,12 @@
 """Benchmark suite (not a test): nlos_rs against mitransient 1.3.1 on several workloads, in one run,
 both on the same threads, warm, interleaved, best of repeats (the machine's speed drifts by up to
 1.5x between runs, alike for both). Prints paths/s and the ratio per
-workload as a Markdown table, and nlos_rs's scaling from 1 to 2 threads (best of 9 each) with the
-cores its fastest 2-thread render kept busy (process CPU time over wall time): the scaling is what a
-user sees, the busy cores whether the render leaves a core idle (on a machine whose cores change
-speed independently the two differ).
+workload as a Markdown table, and nlos_rs's scaling from 1 to 2 threads from 9 renders at each
+count, alternately: the best of each, and their total time (which averages over the machine's
+speed changes instead of catching its fastest moments), with the cores the fastest 2-thread render
+kept busy (process CPU time over wall time): the scaling is what a user sees, the busy cores
+whether the render leaves a core idle (on a machine whose cores change speed independently the two
+differ).
 
     python benchmarks/suite.py [--threads 2] [--repeats 5] [--only NAME ...] [--quick]
 
@@ -156,11 +158,11 @@ def main() -> None:
 
         print(f"\n{platform.processor() or platform.machine()}, {os.cpu_count()} cores, {args.threads} threads, "
               f"nlos_rs {nlos_rs.__version__}, mitransient 1.3.1 (llvm_ad), best of {args.repeats}\n")
-        print("| workload | paths | nlos_rs (M paths/s) | mitransient (M paths/s) | ratio | nlos_rs 1→2 threads | cores busy |")
-        print("|---|---:|---:|---:|---:|---:|---:|")
-        for name, paths, a, b, r, sc, busy in rows:
+        print("| workload | paths | nlos_rs (M paths/s) | mitransient (M paths/s) | ratio | 1→2 threads, best | total | cores busy |")
+        print("|---|---:|---:|---:|---:|---:|---:|---:|")
+        for name, paths, a, b, r, sc, total, busy in rows:
             print(f"| {name} | {float(paths) / 1e6:.1f} M | {float(a):.2f} | {float(b):.2f} | **{float(r):.2f}×** | {float(sc):.2f}× "
-                  f"| {float(busy):.2f} |")
+                  f"| {float(total):.2f}× | {float(busy):.2f} |")
         return
 
     import nlos_rs
@@ -210,6 +212,7 @@ def main() -> None:
             many.append(ours_timed(args.threads))
         wall, cpu = min(many)
         scaling, busy = min(one) / wall, cpu / wall
+        scaling_total = sum(one) / sum(w for w, _ in many)
         theirs_scene = mi.load_file(d[0]) if isinstance(d, tuple) else mi.load_dict(to_mitsuba(d))
         theirs()
         to, tt = [], []
@@ -217,9 +220,10 @@ def main() -> None:
             to.append(ours())
             tt.append(theirs())
         mo, mt = min(to), min(tt)
-        rows.append((name, paths, paths / mo / 1e6, paths / mt / 1e6, mt / mo, scaling, busy))
+        rows.append((name, paths, paths / mo / 1e6, paths / mt / 1e6, mt / mo, scaling, scaling_total, busy))
         print(f"{name:16s} {paths / 1e6:8.1f} M paths  nlos_rs {paths / mo / 1e6:7.2f}  mitransient {paths / mt / 1e6:7.2f} "
-              f"M paths/s  ratio {mt / mo:5.2f}x  scaling 1->{args.threads} threads {scaling:4.2f}x  cores busy {busy:4.2f}",
+              f"M paths/s  ratio {mt / mo:5.2f}x  scaling 1->{args.threads} threads {scaling:4.2f}x (total {scaling_total:4.2f}x)  "
+              f"cores busy {busy:4.2f}",
               flush=True)
 
     for row in rows:
