@@ -69,7 +69,7 @@ impl TwoSided<Colour> {
 impl TwoSided<Spectrum> {
     /// The side's BSDF and the normal it sees, chosen by the side `wi` is on.
     #[inline]
-    fn side(&self, ns: Vec3A, wi: Vec3A) -> (&Bsdf<Spectrum>, Vec3A) {
+    pub(super) fn side(&self, ns: Vec3A, wi: Vec3A) -> (&Bsdf<Spectrum>, Vec3A) {
         if ns.dot(wi) > 0.0 {
             (&self.front, ns)
         } else {
