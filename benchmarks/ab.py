@@ -1,9 +1,10 @@
 """A/B of two builds of nlos_rs in one process (not a test): both builds' cores are loaded side by
 side and their renders of one workload alternate, so both meet the same machine state. On a
 machine whose cores change speed from second to second (this project's drifts by up to 1.5x), two
-builds timed in separate runs differ by more than most changes do; alternated in one process, the
-median ratio of each pair of renders repeats to within about 3 % (the same two builds on the
-Cornell box: 1.053, 1.032 and 1.067).
+builds timed in separate runs differ by more than most changes do. Alternated in one process, the
+median ratio of each pair of renders is steadier but not exact: the same build on both sides gave
+0.976, 1.074 and 1.015 (one run each of three workloads, 12 rounds), so one run resolves changes
+of about 10 %; repeat it (each run is a fresh process) for smaller ones.
 
     pip install --no-deps --target /tmp/a .   # build A (then check out B and build it to /tmp/b)
     python benchmarks/ab.py /tmp/a /tmp/b cornell_los [--spp 256] [--rounds 20] [--threads 1]

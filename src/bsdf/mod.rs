@@ -220,10 +220,7 @@ impl Bsdf<Spectrum> {
     // A diffuse surface, one- or two-sided (by far the most common), is evaluated and sampled
     // inline at every call site; the other BSDFs go through one out-of-line function each.
     // Inlining the whole match everywhere would bloat the hot loops; calling it out of line for
-    // every surface cost up to a sixth of the render (`benchmarks/ab.py`, this against the match
-    // out of line: the exhaustive capture 1.19×, the camera file and the flat letter 1.14×, the
-    // Cornell box 1.09×, the Z single 1.08×, one scan point 1.05×, the T and the 200k mesh
-    // unchanged).
+    // every surface was measurably slower (docs/architecture.md, "The BVH", the last paragraph).
 
     /// The diffuse BSDF answering on the side of `wi`, and the normal it sees: this BSDF if it is
     /// diffuse, the side's if it is two-sided with a diffuse side there.

@@ -84,8 +84,8 @@ impl AreaSampler {
 
     /// A point drawn as [`Self::sample`] does, but with the primitives picked by `dist` (over
     /// [`Self::areas`]' indices) instead of by area; with the primitive's index. Always inlined:
-    /// called out of line, its point came back through memory and the caller's cosine tests
-    /// waited on it (`benchmarks/ab.py`: one scan point and the Cornell box 7 % faster).
+    /// called out of line it returned its point through memory, and renders were measurably
+    /// slower (docs/architecture.md, "The BVH", the last paragraph).
     #[inline(always)]
     pub fn sample_with(
         &self,
