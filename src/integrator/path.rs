@@ -109,17 +109,11 @@ impl<'a> PathTracer<'a> {
         })
     }
 
-    /// Solid-angle density with which next-event estimation picks the point `y` (normal `ng`) of
-    /// an area light from `x`: (1/N_lights) · r² / (A·|cos|).
-    fn light_pdf(&self, sampler: &AreaSampler, x: Vec3A, y: Vec3A, ng: Vec3A) -> f32 {
-        let v = y - x;
-        let r2 = v.length_squared();
-        self.light_pdf_at(sampler, v, r2, r2.sqrt(), ng)
-    }
-
-    /// [`Self::light_pdf`] from `v` = y − x, its squared length and its length.
+    /// Solid-angle density with which next-event estimation picks the point y (normal `ng`) of an
+    /// area light from x: (1/N_lights) · r² / (A·|cos|), from `v` = y − x, r² and r (which the
+    /// callers have already computed).
     #[inline]
-    fn light_pdf_at(&self, sampler: &AreaSampler, v: Vec3A, r2: f32, r: f32, ng: Vec3A) -> f32 {
+    fn light_pdf(&self, sampler: &AreaSampler, v: Vec3A, r2: f32, r: f32, ng: Vec3A) -> f32 {
         let cos = ng.dot(v).abs() / r;
         if cos <= 0.0 {
             0.0
@@ -166,7 +160,7 @@ impl<'a> PathTracer<'a> {
                 let Some(le) = emitted(*radiance, *falloff, y.ns.dot(w)) else {
                     return;
                 };
-                let pdf = self.light_pdf_at(sampler, -to_x, r2, r, y.ng);
+                let pdf = self.light_pdf(sampler, -to_x, r2, r, y.ng);
                 (y.p, le / pdf, mis(pdf, bsdf.pdf(x.ns, wi, -w)), r)
             }
         };
@@ -203,8 +197,12 @@ impl Tracer for PathTracer<'_> {
         let mut depth: u32 = 0;
         while let Some(hit) = self.scene.accel.intersect(ray.o, ray.d, ray.tmin, ray.tmax) {
             let it = self.scene.interaction(ray.o, ray.d, &hit);
+            // The segment just travelled (its length as `length` computes it; reused by MIS).
             let from = prev.map_or(ray.o, |p| p.0);
-            let seg = (it.p - from).length() as f64;
+            let to_it = it.p - from;
+            let r2 = to_it.length_squared();
+            let r = r2.sqrt();
+            let seg = r as f64;
             opl += match depth {
                 0 if st.camera_unwarp => 0.0,
                 0 if st.opl_from_near_clip => seg - ray.tmin as f64,
@@ -223,8 +221,9 @@ impl Tracer for PathTracer<'_> {
                 && let Some(le) = emitted(*radiance, *falloff, it.ns.dot(wi))
             {
                 let w = match prev {
-                    Some((px, Some(bsdf_pdf))) => {
-                        mis(bsdf_pdf, self.light_pdf(sampler, px, it.p, it.ng))
+                    // `from` is the previous vertex here, so `to_it` is the light sample's y − x.
+                    Some((_, Some(bsdf_pdf))) => {
+                        mis(bsdf_pdf, self.light_pdf(sampler, to_it, r2, r, it.ng))
                     }
                     _ => 1.0,
                 };
