@@ -202,9 +202,10 @@ def main() -> None:
             dr.sync_thread()
             return time.perf_counter() - t0
 
-        # Scaling: best of 9 at 1 and N threads, alternately (on this shared machine the same render
-        # in one process takes anywhere from 0.27 to 0.48 s from run to run), before mitransient loads or renders anything in this
-        # process (its worker threads go on spinning after a render and take cores from ours).
+        # Scaling: 9 renders at 1 and N threads, alternately (on this shared machine the same
+        # render in one process takes anywhere from 0.27 to 0.48 s from run to run), before
+        # mitransient loads or renders anything in this process (its worker threads go on
+        # spinning after a render and take cores from ours).
         ours()
         one, many = [], []
         for _ in range(max(9, args.repeats)):
