@@ -20,6 +20,7 @@
 //!   ill-conditioned: they visit every node whose box overlaps the box of their segment (clipped
 //!   to the scene), which is conservative and few nodes for a ray along an axis.
 
+use super::small_scene::SmallScene;
 use super::{Hit, Prim, intersect_triangle, watertight_shear};
 use glam::{BVec4A, Vec3A, Vec4};
 use obvhs::{
@@ -109,6 +110,8 @@ pub struct Accel {
     len: usize,
     /// Bounds of every primitive (where an unbounded ray's segment ends).
     bounds: Aabb,
+    /// A scene of a few dozen triangles is scanned for closest hits instead (on a CPU with AVX2).
+    small: Option<SmallScene>,
 }
 
 /// The plane key of a primitive on no shared plane.
@@ -375,8 +378,18 @@ impl<'a> Collapse<'a> {
 }
 
 impl Accel {
-    /// Build over `prims` (scene order), owned by the `shapes` shapes by `prim_shape`.
+    /// Build over `prims` (scene order), owned by the `shapes` shapes by `prim_shape`: the tree,
+    /// and for a small scene the scan that finds its closest hits instead
+    /// ([`super::small_scene`]).
     pub fn build(prims: &[Prim], prim_shape: &[u32], shapes: usize) -> Self {
+        Self {
+            small: SmallScene::new(prims),
+            ..Self::build_tree(prims, prim_shape, shapes)
+        }
+    }
+
+    /// The tree alone, even for a small scene (what a CPU without AVX2 uses; tests compare both).
+    pub fn build_tree(prims: &[Prim], prim_shape: &[u32], shapes: usize) -> Self {
         let planar = planar_shapes(prims, prim_shape, shapes);
         let mut shape_prims = vec![0u32; shapes];
         for &s in prim_shape {
@@ -411,6 +424,7 @@ impl Accel {
             shape_prims,
             len: prims.len(),
             bounds,
+            small: None,
         }
     }
 
@@ -429,6 +443,14 @@ impl Accel {
             return None;
         }
         let ray = Ray4::new(self, o, d, tmin, tmax);
+        if let Some(small) = &self.small {
+            // The root's four boxes first: a ray that enters none (most in an open scene) is
+            // answered without scanning.
+            if ray.enter(&self.nodes[0], tmax).0 == 0 {
+                return None;
+            }
+            return small.intersect(o, d, tmin, tmax);
+        }
         let mut best: Option<Hit> = None;
         let mut tmax = tmax;
         let mut shear = None;

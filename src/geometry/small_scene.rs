@@ -1,0 +1,510 @@
+//! Closest hits in a scene of a few dozen triangles without walking a tree: every triangle is
+//! tested, sixteen per step (one AVX-512 vector, or two AVX2 ones). A Cornell box (36 triangles)
+//! is three steps; its closest hits took about 150 ns a ray in the 4-wide BVH ([`super::bvh`]),
+//! three nodes and two packs of four with a stack, and take about 100 ns scanned (a micro-benchmark
+//! of random rays inside the box, docs/architecture.md). [`super::bvh::Accel::intersect`] first
+//! tests the tree's root boxes, so that a ray leaving an open scene (most rays in an NLOS scene)
+//! costs no more than in the tree. Shadow rays still take the tree, which skips the relay wall's
+//! and a flat hidden shape's planes and stops at the first hit.
+//!
+//! Hits are those of the scalar watertight test ([`intersect_triangle`]) bit for bit: each lane
+//! runs its operations in its order (no fused multiply-add), and a lane with an edge function of
+//! exactly zero is redone by the scalar test and its double-precision fallback. The closest hit
+//! takes the lowest primitive index among equal distances, as the brute-force oracle
+//! [`super::bvh::intersect_brute`] does.
+//!
+//! The scan is compiled for AVX-512 and for AVX2 and picked at run time; a CPU with neither (or
+//! another architecture) uses the BVH.
+
+use super::{Hit, Prim, intersect_triangle, watertight_shear};
+use glam::Vec3A;
+
+/// Triangles per step.
+const LANES: usize = 16;
+/// Most triangles a scene may have to be scanned instead of traversed: four steps, where the BVH
+/// of such a scene is about three nodes and two packs of four per closest hit.
+pub const MAX_TRIANGLES: usize = 64;
+/// Most packs of a small scene.
+const MAX_PACKS: usize = MAX_TRIANGLES / LANES;
+
+/// Sixteen triangles, one per lane.
+#[derive(Clone, Copy)]
+#[repr(C, align(64))]
+struct Pack {
+    /// `v[vertex][axis][lane]`.
+    v: [[[f32; LANES]; 3]; 3],
+    /// Each lane's primitive index in scene order.
+    prim: [u32; LANES],
+    /// Lanes holding a triangle (bit per lane).
+    valid: u32,
+}
+
+/// The SIMD extension the scan is compiled for (none elsewhere than on x86-64).
+#[derive(Clone, Copy)]
+enum Isa {
+    #[cfg(target_arch = "x86_64")]
+    Avx512,
+    #[cfg(target_arch = "x86_64")]
+    Avx2,
+}
+
+/// Every triangle of a small scene, in packs of sixteen in scene order.
+pub struct SmallScene {
+    packs: Vec<Pack>,
+    isa: Isa,
+}
+
+/// The watertight test's ray: the axes permuted so that z is the dominant direction component,
+/// the permuted origin and the shear (the set-up of [`intersect_triangle`]).
+struct Shear {
+    k: [usize; 3],
+    ko: [f32; 3],
+    s: [f32; 3],
+}
+
+/// One step's lanes: hit in `(tmin, tmax)` and to redo in the scalar test (bit per lane), each
+/// hit lane's distance (+∞ in the others) and barycentrics.
+#[derive(Clone, Copy)]
+struct Lanes<V> {
+    hit: u32,
+    redo: u32,
+    t: V,
+    b1: V,
+    b2: V,
+}
+
+impl Pack {
+    /// The watertight test on the sixteen lanes in vectors `V`, each lane with the operations
+    /// of [`intersect_triangle`] in its order.
+    #[inline(always)]
+    fn test<V: Wide>(&self, sh: &Shear, tmin: f32, tmax: f32) -> Lanes<V> {
+        let ko = [V::splat(sh.ko[0]), V::splat(sh.ko[1]), V::splat(sh.ko[2])];
+        let s = [V::splat(sh.s[0]), V::splat(sh.s[1]), V::splat(sh.s[2])];
+        let p0 = vertex(&self.v[0], sh.k, ko, s);
+        let p1 = vertex(&self.v[1], sh.k, ko, s);
+        let p2 = vertex(&self.v[2], sh.k, ko, s);
+        let e0 = p1[0].mul(p2[1]).sub(p1[1].mul(p2[0]));
+        let e1 = p2[0].mul(p0[1]).sub(p2[1].mul(p0[0]));
+        let e2 = p0[0].mul(p1[1]).sub(p0[1].mul(p1[0]));
+        let zero = V::splat(0.0);
+        let redo = (e0.eq(zero) | e1.eq(zero) | e2.eq(zero)) & self.valid;
+        let neg = e0.lt(zero) | e1.lt(zero) | e2.lt(zero);
+        let pos = zero.lt(e0) | zero.lt(e1) | zero.lt(e2);
+        let det = e0.add(e1).add(e2);
+        let inv_det = V::splat(1.0).div(det);
+        let t = e0
+            .mul(p0[2])
+            .add(e1.mul(p1[2]))
+            .add(e2.mul(p2[2]))
+            .mul(inv_det);
+        let hit = !(neg & pos)
+            & det.ne(zero)
+            & V::splat(tmin).lt(t)
+            & t.lt(V::splat(tmax))
+            & self.valid
+            & !redo;
+        Lanes {
+            hit,
+            redo,
+            t: V::select(hit, t, V::splat(f32::INFINITY)),
+            b1: e1.mul(inv_det),
+            b2: e2.mul(inv_det),
+        }
+    }
+
+    /// The scalar watertight test on lane `lane` (rare: an edge function was exactly zero).
+    #[cold]
+    #[inline(never)]
+    fn lane(
+        &self,
+        lane: usize,
+        o: Vec3A,
+        d: Vec3A,
+        tmin: f32,
+        tmax: f32,
+    ) -> Option<(f32, f32, f32)> {
+        let v = self
+            .v
+            .map(|v| Vec3A::new(v[0][lane], v[1][lane], v[2][lane]));
+        intersect_triangle(o, d, tmin, tmax, &v)
+    }
+}
+
+impl SmallScene {
+    /// The scan over `prims` if they are at most [`MAX_TRIANGLES`] triangles and the CPU has
+    /// AVX-512 or AVX2 (the widest is used).
+    pub fn new(prims: &[Prim]) -> Option<Self> {
+        Self::with_isa(prims, *supported().first()?)
+    }
+
+    /// The scan over `prims` once for each SIMD extension this CPU has (tests compare them).
+    pub fn each_extension(prims: &[Prim]) -> Vec<Self> {
+        supported()
+            .into_iter()
+            .filter_map(|isa| Self::with_isa(prims, isa))
+            .collect()
+    }
+
+    fn with_isa(prims: &[Prim], isa: Isa) -> Option<Self> {
+        if prims.len() > MAX_TRIANGLES {
+            return None;
+        }
+        let mut packs = Vec::new();
+        for (i, p) in prims.iter().enumerate() {
+            let Prim::Triangle { v, .. } = p else {
+                return None;
+            };
+            let lane = i % LANES;
+            if lane == 0 {
+                packs.push(Pack {
+                    v: [[[0.0; LANES]; 3]; 3],
+                    prim: [0; LANES],
+                    valid: 0,
+                });
+            }
+            let pack = packs.last_mut()?;
+            for (k, vk) in v.iter().enumerate() {
+                for a in 0..3 {
+                    pack.v[k][a][lane] = vk[a];
+                }
+            }
+            pack.prim[lane] = i as u32;
+            pack.valid |= 1 << lane;
+        }
+        Some(Self { packs, isa })
+    }
+
+    /// Closest hit of the ray `o + t d`, `t ∈ (tmin, tmax)`; `d` must be unit length.
+    pub fn intersect(&self, o: Vec3A, d: Vec3A, tmin: f32, tmax: f32) -> Option<Hit> {
+        // SAFETY: `isa` was detected on this CPU.
+        match self.isa {
+            #[cfg(target_arch = "x86_64")]
+            Isa::Avx512 => unsafe { self.intersect_avx512(o, d, tmin, tmax) },
+            #[cfg(target_arch = "x86_64")]
+            Isa::Avx2 => unsafe { self.intersect_avx2(o, d, tmin, tmax) },
+        }
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f")]
+    fn intersect_avx512(&self, o: Vec3A, d: Vec3A, tmin: f32, tmax: f32) -> Option<Hit> {
+        self.closest::<wide::Z16>(o, d, tmin, tmax)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn intersect_avx2(&self, o: Vec3A, d: Vec3A, tmin: f32, tmax: f32) -> Option<Hit> {
+        self.closest::<wide::Y16>(o, d, tmin, tmax)
+    }
+
+    /// The closest hit: the least distance over the packs' hit lanes, taken without a branch per
+    /// lane (the lanes a ray hits vary from ray to ray, and their branches were mispredicted),
+    /// then the first lane at that distance in scene order, as in a scan that accepts a lane only
+    /// if it shortens the ray. With a lane to redo in the scalar test (an edge function exactly
+    /// zero), that scan itself.
+    #[inline(always)]
+    fn closest<V: Wide>(&self, o: Vec3A, d: Vec3A, tmin: f32, tmax: f32) -> Option<Hit> {
+        let sh = shear(o, d);
+        let none = Lanes {
+            hit: 0,
+            redo: 0,
+            t: V::splat(f32::INFINITY),
+            b1: V::splat(0.0),
+            b2: V::splat(0.0),
+        };
+        let mut all = [none; MAX_PACKS];
+        let (mut least, mut redo) = (V::splat(f32::INFINITY), 0);
+        for (l, p) in all.iter_mut().zip(&self.packs) {
+            *l = p.test::<V>(&sh, tmin, tmax);
+            least = least.min(l.t);
+            redo |= l.redo;
+        }
+        if redo != 0 {
+            return self.scan(&all, o, d, tmin, tmax);
+        }
+        let t = least.reduce_min();
+        if t == f32::INFINITY {
+            return None;
+        }
+        let (pack, l) = all
+            .iter()
+            .enumerate()
+            .find(|(_, l)| l.t.eq(V::splat(t)) != 0)?;
+        let lane = l.t.eq(V::splat(t)).trailing_zeros() as usize;
+        Some(Hit {
+            t,
+            prim: self.packs[pack].prim[lane],
+            b: [l.b1.lane(lane), l.b2.lane(lane)],
+        })
+    }
+
+    /// The closest hit from the packs' lanes `all` in scene order, a lane accepted only if it
+    /// shortens the ray; lanes to redo go to the scalar test.
+    #[cold]
+    #[inline(never)]
+    fn scan<V: Wide>(
+        &self,
+        all: &[Lanes<V>],
+        o: Vec3A,
+        d: Vec3A,
+        tmin: f32,
+        mut tmax: f32,
+    ) -> Option<Hit> {
+        let mut best = None;
+        for (p, l) in self.packs.iter().zip(all) {
+            let mut lanes = l.hit | l.redo;
+            while lanes != 0 {
+                let lane = lanes.trailing_zeros() as usize;
+                lanes &= lanes - 1;
+                let found = if l.hit >> lane & 1 != 0 {
+                    Some((l.t.lane(lane), l.b1.lane(lane), l.b2.lane(lane)))
+                } else {
+                    p.lane(lane, o, d, tmin, tmax)
+                };
+                if let Some((t, b1, b2)) = found
+                    && t < tmax
+                {
+                    tmax = t;
+                    best = Some(Hit {
+                        t,
+                        prim: p.prim[lane],
+                        b: [b1, b2],
+                    });
+                }
+            }
+        }
+        best
+    }
+}
+
+/// One vertex `v` of the lanes relative to the ray's origin, permuted by `k` and sheared.
+#[inline(always)]
+fn vertex<V: Wide>(v: &[[f32; LANES]; 3], k: [usize; 3], ko: [V; 3], s: [V; 3]) -> [V; 3] {
+    let z = V::load(&v[k[2]]).sub(ko[2]);
+    [
+        V::load(&v[k[0]]).sub(ko[0]).add(s[0].mul(z)),
+        V::load(&v[k[1]]).sub(ko[1]).add(s[1].mul(z)),
+        z.mul(s[2]),
+    ]
+}
+
+/// The watertight set-up of the ray `o + t d`.
+#[inline(always)]
+fn shear(o: Vec3A, d: Vec3A) -> Shear {
+    let (k, s) = watertight_shear(d);
+    Shear {
+        k,
+        ko: k.map(|a| o[a]),
+        s,
+    }
+}
+
+/// The SIMD extensions of this CPU the scan is compiled for, widest first.
+fn supported() -> Vec<Isa> {
+    #[allow(unused_mut)]
+    let mut isa = Vec::new();
+    #[cfg(target_arch = "x86_64")]
+    {
+        if std::arch::is_x86_feature_detected!("avx512f") {
+            isa.push(Isa::Avx512);
+        }
+        if std::arch::is_x86_feature_detected!("avx2") {
+            isa.push(Isa::Avx2);
+        }
+    }
+    isa
+}
+
+/// Sixteen `f32` lanes: the operations the test needs, each lane rounded as the scalar operation
+/// (comparisons give a bit per lane; `lt` and `eq` are false on NaN, `ne` true, as in Rust).
+trait Wide: Copy {
+    fn splat(x: f32) -> Self;
+    fn load(a: &[f32; LANES]) -> Self;
+    fn store(self) -> [f32; LANES];
+    fn add(self, b: Self) -> Self;
+    fn sub(self, b: Self) -> Self;
+    fn mul(self, b: Self) -> Self;
+    fn div(self, b: Self) -> Self;
+    fn min(self, b: Self) -> Self;
+    /// `a` in the lanes of `mask`, `b` in the others.
+    fn select(mask: u32, a: Self, b: Self) -> Self;
+    /// The least lane (no lane is NaN).
+    fn reduce_min(self) -> f32;
+    fn lane(self, lane: usize) -> f32 {
+        self.store()[lane]
+    }
+    fn lt(self, b: Self) -> u32;
+    fn eq(self, b: Self) -> u32;
+    fn ne(self, b: Self) -> u32;
+}
+
+/// The two implementations of [`Wide`]: one AVX-512 vector, two AVX2 ones. Their functions are
+/// inlined into the `#[target_feature]` callers above, which alone call them.
+#[cfg(target_arch = "x86_64")]
+mod wide {
+    use super::{LANES, Wide};
+    use std::arch::x86_64::*;
+
+    #[derive(Clone, Copy)]
+    pub struct Z16(__m512);
+
+    #[derive(Clone, Copy)]
+    pub struct Y16(__m256, __m256);
+
+    // SAFETY (every block below): only reached from functions compiled with the extension,
+    // called after it was detected on this CPU; loads and stores are of whole 16-lane arrays.
+    impl Wide for Z16 {
+        #[inline(always)]
+        fn splat(x: f32) -> Self {
+            Self(unsafe { _mm512_set1_ps(x) })
+        }
+        #[inline(always)]
+        fn load(a: &[f32; LANES]) -> Self {
+            Self(unsafe { _mm512_loadu_ps(a.as_ptr()) })
+        }
+        #[inline(always)]
+        fn store(self) -> [f32; LANES] {
+            let mut a = [0.0; LANES];
+            unsafe { _mm512_storeu_ps(a.as_mut_ptr(), self.0) };
+            a
+        }
+        #[inline(always)]
+        fn add(self, b: Self) -> Self {
+            Self(unsafe { _mm512_add_ps(self.0, b.0) })
+        }
+        #[inline(always)]
+        fn sub(self, b: Self) -> Self {
+            Self(unsafe { _mm512_sub_ps(self.0, b.0) })
+        }
+        #[inline(always)]
+        fn mul(self, b: Self) -> Self {
+            Self(unsafe { _mm512_mul_ps(self.0, b.0) })
+        }
+        #[inline(always)]
+        fn div(self, b: Self) -> Self {
+            Self(unsafe { _mm512_div_ps(self.0, b.0) })
+        }
+        #[inline(always)]
+        fn min(self, b: Self) -> Self {
+            Self(unsafe { _mm512_min_ps(self.0, b.0) })
+        }
+        #[inline(always)]
+        fn select(mask: u32, a: Self, b: Self) -> Self {
+            Self(unsafe { _mm512_mask_blend_ps(mask as u16, b.0, a.0) })
+        }
+        #[inline(always)]
+        fn reduce_min(self) -> f32 {
+            unsafe { _mm512_reduce_min_ps(self.0) }
+        }
+        #[inline(always)]
+        fn lt(self, b: Self) -> u32 {
+            unsafe { _mm512_cmp_ps_mask::<_CMP_LT_OQ>(self.0, b.0) as u32 }
+        }
+        #[inline(always)]
+        fn eq(self, b: Self) -> u32 {
+            unsafe { _mm512_cmp_ps_mask::<_CMP_EQ_OQ>(self.0, b.0) as u32 }
+        }
+        #[inline(always)]
+        fn ne(self, b: Self) -> u32 {
+            unsafe { _mm512_cmp_ps_mask::<_CMP_NEQ_UQ>(self.0, b.0) as u32 }
+        }
+    }
+
+    /// Lanes 0–7 in the first vector, 8–15 in the second.
+    impl Y16 {
+        #[inline(always)]
+        fn zip(self, b: Self, f: impl Fn(__m256, __m256) -> __m256) -> Self {
+            Self(f(self.0, b.0), f(self.1, b.1))
+        }
+        #[inline(always)]
+        fn bits(self, b: Self, f: impl Fn(__m256, __m256) -> __m256) -> u32 {
+            unsafe {
+                (_mm256_movemask_ps(f(self.0, b.0)) as u32)
+                    | (_mm256_movemask_ps(f(self.1, b.1)) as u32) << 8
+            }
+        }
+    }
+
+    impl Wide for Y16 {
+        #[inline(always)]
+        fn splat(x: f32) -> Self {
+            let v = unsafe { _mm256_set1_ps(x) };
+            Self(v, v)
+        }
+        #[inline(always)]
+        fn load(a: &[f32; LANES]) -> Self {
+            unsafe {
+                Self(
+                    _mm256_loadu_ps(a.as_ptr()),
+                    _mm256_loadu_ps(a.as_ptr().add(8)),
+                )
+            }
+        }
+        #[inline(always)]
+        fn store(self) -> [f32; LANES] {
+            let mut a = [0.0; LANES];
+            unsafe {
+                _mm256_storeu_ps(a.as_mut_ptr(), self.0);
+                _mm256_storeu_ps(a.as_mut_ptr().add(8), self.1);
+            }
+            a
+        }
+        #[inline(always)]
+        fn add(self, b: Self) -> Self {
+            self.zip(b, |x, y| unsafe { _mm256_add_ps(x, y) })
+        }
+        #[inline(always)]
+        fn sub(self, b: Self) -> Self {
+            self.zip(b, |x, y| unsafe { _mm256_sub_ps(x, y) })
+        }
+        #[inline(always)]
+        fn mul(self, b: Self) -> Self {
+            self.zip(b, |x, y| unsafe { _mm256_mul_ps(x, y) })
+        }
+        #[inline(always)]
+        fn div(self, b: Self) -> Self {
+            self.zip(b, |x, y| unsafe { _mm256_div_ps(x, y) })
+        }
+        #[inline(always)]
+        fn min(self, b: Self) -> Self {
+            self.zip(b, |x, y| unsafe { _mm256_min_ps(x, y) })
+        }
+        #[inline(always)]
+        fn select(mask: u32, a: Self, b: Self) -> Self {
+            // Lane i of the blend mask: bit i of `mask` spread over the lane's 32 bits.
+            let spread = |m: u32| unsafe {
+                let bits = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
+                let m = _mm256_and_si256(_mm256_set1_epi32(m as i32), bits);
+                _mm256_castsi256_ps(_mm256_cmpeq_epi32(m, bits))
+            };
+            let (lo, hi) = (spread(mask & 0xff), spread(mask >> 8 & 0xff));
+            unsafe {
+                Self(
+                    _mm256_blendv_ps(b.0, a.0, lo),
+                    _mm256_blendv_ps(b.1, a.1, hi),
+                )
+            }
+        }
+        #[inline(always)]
+        fn reduce_min(self) -> f32 {
+            unsafe {
+                let m = _mm256_min_ps(self.0, self.1);
+                let m = _mm_min_ps(_mm256_castps256_ps128(m), _mm256_extractf128_ps::<1>(m));
+                let m = _mm_min_ps(m, _mm_movehl_ps(m, m));
+                _mm_cvtss_f32(_mm_min_ss(m, _mm_shuffle_ps::<1>(m, m)))
+            }
+        }
+        #[inline(always)]
+        fn lt(self, b: Self) -> u32 {
+            self.bits(b, |x, y| unsafe { _mm256_cmp_ps::<_CMP_LT_OQ>(x, y) })
+        }
+        #[inline(always)]
+        fn eq(self, b: Self) -> u32 {
+            self.bits(b, |x, y| unsafe { _mm256_cmp_ps::<_CMP_EQ_OQ>(x, y) })
+        }
+        #[inline(always)]
+        fn ne(self, b: Self) -> u32 {
+            self.bits(b, |x, y| unsafe { _mm256_cmp_ps::<_CMP_NEQ_UQ>(x, y) })
+        }
+    }
+}
