@@ -110,9 +110,14 @@ pub struct Accel {
     len: usize,
     /// Bounds of every primitive (where an unbounded ray's segment ends).
     bounds: Aabb,
-    /// A scene of a few dozen triangles is scanned for closest hits instead (on a CPU with AVX2).
-    small: Option<SmallScene>,
+    /// A scene of a few dozen triangles is scanned for closest hits instead (on a CPU with AVX2),
+    /// in an open scene after the root's box test.
+    small: Option<(SmallScene, bool)>,
 }
+
+/// The share of rays the root's box test must turn away for a small scene to test it before its
+/// scan: the test costs about a quarter of a scan of three packs (docs/architecture.md, "The BVH").
+const ROOT_TEST_PAYS: f32 = 0.25;
 
 /// The plane key of a primitive on no shared plane.
 pub const NO_PLANE: u32 = u32::MAX;
@@ -382,10 +387,48 @@ impl Accel {
     /// and for a small scene the scan that finds its closest hits instead
     /// ([`super::small_scene`]).
     pub fn build(prims: &[Prim], prim_shape: &[u32], shapes: usize) -> Self {
-        Self {
-            small: SmallScene::new(prims),
-            ..Self::build_tree(prims, prim_shape, shapes)
+        let mut accel = Self::build_tree(prims, prim_shape, shapes);
+        if let Some(scan) = SmallScene::new(prims) {
+            let root_first = accel.root_misses(prims) > ROOT_TEST_PAYS;
+            accel.small = Some((scan, root_first));
         }
+        accel
+    }
+
+    /// The share of rays leaving the primitives that enter none of the root's boxes: from each
+    /// centroid, just off the front of the surface, in those of 32 fixed directions in front of
+    /// it, weighted by the primitive's area (paths leave large surfaces, such as a relay wall,
+    /// more often).
+    fn root_misses(&self, prims: &[Prim]) -> f32 {
+        const DIRECTIONS: usize = 32;
+        if self.nodes.is_empty() {
+            return 1.0;
+        }
+        // A Fibonacci sphere: directions spread evenly, none along an axis.
+        let golden = std::f32::consts::PI * (3.0 - 5f32.sqrt());
+        let dirs: Vec<Vec3A> = (0..DIRECTIONS)
+            .map(|i| {
+                let z = 1.0 - (2 * i + 1) as f32 / DIRECTIONS as f32;
+                let r = (1.0 - z * z).sqrt();
+                let phi = golden * i as f32;
+                Vec3A::new(r * phi.cos(), r * phi.sin(), z)
+            })
+            .collect();
+        let (mut missed, mut total) = (0.0, 0.0);
+        for p in prims {
+            let Prim::Triangle { v, n } = p else { continue };
+            let c = (v[0] + v[1] + v[2]) / 3.0;
+            let o = c + *n * 1e-4;
+            let (mut rays, mut misses) = (0, 0);
+            for &d in dirs.iter().filter(|d| n.dot(**d) > 0.0) {
+                let ray = Ray4::new(self, o, d, 0.0, f32::INFINITY);
+                misses += (ray.enter(&self.nodes[0], f32::INFINITY).0 == 0) as u32;
+                rays += 1;
+            }
+            missed += p.area() * misses as f32;
+            total += p.area() * rays as f32;
+        }
+        if total > 0.0 { missed / total } else { 1.0 }
     }
 
     /// The tree alone, even for a small scene (what a CPU without AVX2 uses; tests compare both).
@@ -442,15 +485,20 @@ impl Accel {
         if self.nodes.is_empty() {
             return None;
         }
-        let ray = Ray4::new(self, o, d, tmin, tmax);
-        if let Some(small) = &self.small {
-            // The root's four boxes first: a ray that enters none (most in an open scene) is
-            // answered without scanning.
-            if ray.enter(&self.nodes[0], tmax).0 == 0 {
+        if let Some((scan, root_first)) = &self.small {
+            // In an open scene, the root's four boxes first: a ray that enters none is answered
+            // without scanning.
+            if *root_first
+                && Ray4::new(self, o, d, tmin, tmax)
+                    .enter(&self.nodes[0], tmax)
+                    .0
+                    == 0
+            {
                 return None;
             }
-            return small.intersect(o, d, tmin, tmax);
+            return scan.intersect(o, d, tmin, tmax);
         }
+        let ray = Ray4::new(self, o, d, tmin, tmax);
         let mut best: Option<Hit> = None;
         let mut tmax = tmax;
         let mut shear = None;

@@ -1,11 +1,11 @@
 //! Closest hits in a scene of a few dozen triangles without walking a tree: every triangle is
 //! tested, sixteen per step (one AVX-512 vector, or two AVX2 ones). A Cornell box (36 triangles)
-//! is three steps; its closest hits took about 150 ns a ray in the 4-wide BVH ([`super::bvh`]),
-//! three nodes and two packs of four with a stack, and take about 100 ns scanned (a micro-benchmark
-//! of random rays inside the box, docs/architecture.md). [`super::bvh::Accel::intersect`] first
-//! tests the tree's root boxes, so that a ray leaving an open scene (most rays in an NLOS scene)
-//! costs no more than in the tree. Shadow rays still take the tree, which skips the relay wall's
-//! and a flat hidden shape's planes and stops at the first hit.
+//! is three steps; its closest hits took 150–186 ns a ray in the 4-wide BVH ([`super::bvh`]),
+//! three nodes and two packs of four with a stack, and take about 77 ns scanned (a micro-benchmark
+//! of random rays inside the box, docs/architecture.md). In an open scene, where most rays leave
+//! without meeting anything, [`super::bvh::Accel::intersect`] first tests the tree's root boxes,
+//! so such a ray costs no more than in the tree. Shadow rays still take the tree, which skips the
+//! relay wall's and a flat hidden shape's planes and stops at the first hit.
 //!
 //! Hits are those of the scalar watertight test ([`intersect_triangle`]) bit for bit: each lane
 //! runs its operations in its order (no fused multiply-add), and a lane with an edge function of
