@@ -341,7 +341,8 @@ fn coincident_triangles_make_a_deep_tree_that_still_works() {
 }
 
 /// The small-scene scan for each SIMD extension of this CPU gives brute force's closest hit bit for
-/// bit (distance, primitive — the lowest index among equal distances — and barycentrics), on rays
+/// bit (distance, primitive — the lowest index among equal distances — and barycentrics) and its
+/// shadow-ray answer (skipping planes), on rays
 /// through shared edges and vertices, along axes and with -0.0 components, with finite and
 /// infinite ends; the tree agrees with it. Scenes: a closed sphere mesh (48 triangles), a box of
 /// axis-aligned quads with two boxes inside (a Cornell box, 36), random triangles (17 and 64: a
@@ -432,9 +433,10 @@ fn small_scene_scan_is_brute_force_bit_for_bit() {
     #[cfg(not(target_arch = "x86_64"))]
     let extensions = 0;
     let mut rng = Sampler::new(24, 25, 26);
-    let (mut rays, mut hits) = (0, 0);
+    let (mut rays, mut hits, mut blocked) = (0, 0, 0);
     for prims in &scenes {
-        let scans = SmallScene::each_extension(prims);
+        // Each triangle its own plane, as in `build`.
+        let scans = SmallScene::each_extension(prims, |i| i as u32);
         assert_eq!(scans.len(), extensions);
         let accel = build(prims);
         let shapes: Vec<u32> = (0..prims.len() as u32).collect();
@@ -494,19 +496,49 @@ fn small_scene_scan_is_brute_force_bit_for_bit() {
                     "tree: {o:?} + t {d:?}: {a:?} vs {b:?}"
                 ),
             }
+            // Shadow rays, skipping up to two triangles' planes: all agree with brute force
+            // over the other triangles.
+            let pick = |u: f32| ((u * prims.len() as f32) as u32).min(prims.len() as u32 - 1);
+            let skip = [
+                pick(rng.next_1d()),
+                if k % 2 == 0 {
+                    NO_PLANE
+                } else {
+                    pick(rng.next_1d())
+                },
+            ];
+            let t_end = 0.5 + 2.0 * rng.next_1d();
+            let free = prims
+                .iter()
+                .enumerate()
+                .filter(|(j, _)| !skip.contains(&(*j as u32)))
+                .all(|(_, p)| p.intersect(o, d, 1e-4, t_end).is_none());
+            for scan in &scans {
+                assert_eq!(
+                    scan.unoccluded(o, d, 1e-4, t_end, skip),
+                    free,
+                    "{o:?} + t {d:?}"
+                );
+            }
+            assert_eq!(accel.unoccluded(o, d, 1e-4, t_end, skip), free);
+            assert_eq!(tree.unoccluded(o, d, 1e-4, t_end, skip), free);
             rays += 1;
             hits += want.is_some() as u32;
+            blocked += !free as u32;
         }
     }
-    assert!(rays > 20_000 && hits > 8_000, "{rays} rays, {hits} hits");
+    assert!(
+        rays > 20_000 && hits > 8_000 && blocked > 4_000,
+        "{rays} rays, {hits} hits, {blocked} blocked"
+    );
     // Not small: one triangle too many, or a sphere.
     let mut more = scenes[3].clone();
     more.push(more[0]);
-    assert!(SmallScene::new(&more).is_none());
+    assert!(SmallScene::new(&more, |_| NO_PLANE).is_none());
     more.truncate(3);
     more.push(Prim::Sphere {
         center: Vec3A::ZERO,
         radius: 0.5,
     });
-    assert!(SmallScene::new(&more).is_none());
+    assert!(SmallScene::new(&more, |_| NO_PLANE).is_none());
 }

@@ -111,7 +111,8 @@ pub struct Accel {
     /// Bounds of every primitive (where an unbounded ray's segment ends).
     bounds: Aabb,
     /// A scene of a few dozen triangles is scanned for closest hits instead (on a CPU with AVX2),
-    /// in an open scene after the root's box test.
+    /// and whether it is open: then closest hits are scanned after the root's box test, and
+    /// shadow rays take the tree; in a closed one both are scanned.
     small: Option<(SmallScene, bool)>,
 }
 
@@ -384,11 +385,10 @@ impl<'a> Collapse<'a> {
 
 impl Accel {
     /// Build over `prims` (scene order), owned by the `shapes` shapes by `prim_shape`: the tree,
-    /// and for a small scene the scan that finds its closest hits instead
-    /// ([`super::small_scene`]).
+    /// and for a small scene the scan that answers its rays instead ([`super::small_scene`]).
     pub fn build(prims: &[Prim], prim_shape: &[u32], shapes: usize) -> Self {
         let mut accel = Self::build_tree(prims, prim_shape, shapes);
-        if let Some(scan) = SmallScene::new(prims) {
+        if let Some(scan) = SmallScene::new(prims, |i| accel.plane_of(prim_shape[i])) {
             let root_first = accel.root_misses(prims) > ROOT_TEST_PAYS;
             accel.small = Some((scan, root_first));
         }
@@ -565,6 +565,10 @@ impl Accel {
             };
         if self.len == skipped {
             return true;
+        }
+        // A closed small scene: most segments meet some box, and the scan is cheaper.
+        if let Some((scan, false)) = &self.small {
+            return scan.unoccluded(o, d, tmin, tmax, skip);
         }
         let ray = Ray4::new(self, o, d, tmin, tmax);
         let mut tmax = tmax;
