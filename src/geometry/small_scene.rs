@@ -1,4 +1,4 @@
-//! Closest hits in a scene of a few dozen triangles without walking a tree: every triangle is
+//! Rays in a scene of a few dozen triangles without walking a tree: every triangle is
 //! tested, sixteen per step (one AVX-512 vector, or two AVX2 ones). A Cornell box (36 triangles)
 //! is three steps; its closest hits took 150–186 ns a ray in the 4-wide BVH ([`super::bvh`]),
 //! three nodes and two packs of four with a stack, and take about 77 ns scanned (a micro-benchmark
@@ -314,9 +314,7 @@ impl SmallScene {
         }
         best
     }
-}
 
-impl SmallScene {
     /// Whether the segment is free of triangles off the planes `skip`: every pack is tested
     /// before one branch on the result; a lane to redo goes to the scalar test.
     #[inline(always)]
@@ -334,7 +332,8 @@ impl SmallScene {
         !(hit || redo && self.redo_hits(o, d, tmin, tmax, skip))
     }
 
-    /// Whether a lane to redo, off the planes `skip`, meets the segment in the scalar test.
+    /// Whether a triangle off the planes `skip` meets the segment in the scalar test: the answer
+    /// once a lane had to be redone and no other lane met it (rare).
     #[cold]
     #[inline(never)]
     fn redo_hits(&self, o: Vec3A, d: Vec3A, tmin: f32, tmax: f32, skip: [u32; 2]) -> bool {
