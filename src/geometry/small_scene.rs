@@ -237,10 +237,9 @@ impl SmallScene {
     }
 
     /// The closest hit: the least distance over the packs' hit lanes, taken without a branch per
-    /// lane (the lanes a ray hits vary from ray to ray, and their branches were mispredicted),
-    /// then the first lane at that distance in scene order, as in a scan that accepts a lane only
-    /// if it shortens the ray. With a lane to redo in the scalar test (an edge function exactly
-    /// zero), that scan itself.
+    /// lane (a scan with one measured the same), then the first lane at that distance in scene
+    /// order, as in a scan that accepts a lane only if it shortens the ray. With a lane to redo in
+    /// the scalar test (an edge function exactly zero), that scan itself.
     #[inline(always)]
     fn closest<V: Wide>(&self, o: Vec3A, d: Vec3A, tmin: f32, tmax: f32) -> Option<Hit> {
         let sh = shear(o, d);
