@@ -1,8 +1,8 @@
 //! Rays in a scene of a few dozen triangles without walking a tree: every triangle is
 //! tested, sixteen per step (one AVX-512 vector, or two AVX2 ones). A Cornell box (36 triangles)
-//! is three steps; its closest hits took 150–186 ns a ray in the 4-wide BVH ([`super::bvh`]),
-//! three nodes and two packs of four with a stack, and take about 77 ns scanned (a micro-benchmark
-//! of random rays inside the box, docs/architecture.md). In an open scene, where most rays leave
+//! is three steps; its closest hits took 164–211 ns a ray in the 4-wide BVH ([`super::bvh`]),
+//! three nodes and two packs of four with a stack, and take about 102 ns scanned (a
+//! micro-benchmark of random rays inside the box, docs/architecture.md). In an open scene, where most rays leave
 //! without meeting anything, [`super::bvh::Accel::intersect`] first tests the tree's root boxes,
 //! so such a ray costs no more than in the tree. Shadow rays are scanned too in a closed scene
 //! (the T behind two corners 1.05–1.18× faster); in an open one they keep the tree, whose root
