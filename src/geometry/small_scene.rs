@@ -264,11 +264,11 @@ impl SmallScene {
         if t == f32::INFINITY {
             return None;
         }
-        let (pack, l) = all
-            .iter()
-            .enumerate()
-            .find(|(_, l)| l.t.eq(V::splat(t)) != 0)?;
-        let lane = l.t.eq(V::splat(t)).trailing_zeros() as usize;
+        let (pack, l, at_t) = all.iter().enumerate().find_map(|(pack, l)| {
+            let at_t = l.t.eq(V::splat(t));
+            (at_t != 0).then_some((pack, l, at_t))
+        })?;
+        let lane = at_t.trailing_zeros() as usize;
         Some(Hit {
             t,
             prim: self.packs[pack].prim[lane],
