@@ -6,7 +6,7 @@ use glam::Vec3A;
 use nlos_rs::geometry::{
     Prim,
     bvh::{Accel, NO_PLANE, intersect_brute},
-    small_scene::{MAX_TRIANGLES, SmallScene},
+    small_scene::{ALL_PACKS, MAX_TRIANGLES, SmallScene},
 };
 use nlos_rs::sampling::{Sampler, square_to_uniform_sphere};
 
@@ -479,7 +479,7 @@ fn small_scene_scan_is_brute_force_bit_for_bit() {
                 h.map(|h| (h.t.to_bits(), h.prim, h.b.map(f32::to_bits)))
             };
             for scan in &scans {
-                let got = scan.intersect(o, d, 1e-4, tmax);
+                let got = scan.intersect(o, d, 1e-4, tmax, ALL_PACKS);
                 assert_eq!(bits(got), bits(want), "{o:?} + t {d:?} up to {tmax}");
             }
             // The scene's accelerator is the scan where there is one. The tree finds the same
@@ -515,7 +515,7 @@ fn small_scene_scan_is_brute_force_bit_for_bit() {
                 .all(|(_, p)| p.intersect(o, d, 1e-4, t_end).is_none());
             for scan in &scans {
                 assert_eq!(
-                    scan.unoccluded(o, d, 1e-4, t_end, skip),
+                    scan.unoccluded(o, d, 1e-4, t_end, skip, ALL_PACKS),
                     free,
                     "{o:?} + t {d:?}"
                 );
@@ -581,15 +581,22 @@ fn small_scene_scan_matches_brute_force_on_random_and_degenerate_scenes() {
             prims.push(Prim::triangle([a, b, c]));
         }
         let scans = SmallScene::each_extension(&prims, |i| i as u32);
-        for _ in 0..500 {
+        let accel = build(&prims);
+        for k in 0..500 {
             let o = (Vec3A::new(rng.next_1d(), rng.next_1d(), rng.next_1d()) * 3.0
                 - Vec3A::splat(1.5))
                 * scale;
-            let d = if rng.next_1d() < 0.5 {
+            let mut d = if rng.next_1d() < 0.5 {
                 square_to_uniform_sphere(rng.next_2d())
             } else {
                 (pick(&mut rng, &vertices) - o).normalize_or(Vec3A::X)
             };
+            // Every tenth ray nearly along an axis (the packs' box test takes another path).
+            if k % 10 == 0 {
+                let a = k / 10 % 3;
+                d = (Vec3A::AXES[a] * d[a].signum() + (d - Vec3A::AXES[a] * d[a]) * 1e-7)
+                    .normalize();
+            }
             let tmax = if rng.next_1d() < 0.5 {
                 f32::INFINITY
             } else {
@@ -603,17 +610,29 @@ fn small_scene_scan_matches_brute_force_on_random_and_degenerate_scenes() {
             let free = intersect_brute(&prims, o, d, 0.0, t_end).is_none();
             for scan in &scans {
                 assert_eq!(
-                    bits(scan.intersect(o, d, 0.0, tmax)),
+                    bits(scan.intersect(o, d, 0.0, tmax, ALL_PACKS)),
                     want,
                     "scene {scene}: {o:?} + t {d:?}"
                 );
                 assert_eq!(
-                    scan.unoccluded(o, d, 0.0, t_end, NONE),
+                    scan.unoccluded(o, d, 0.0, t_end, NONE, ALL_PACKS),
                     free,
                     "scene {scene}: {o:?} + t {d:?}"
                 );
                 queries += 1;
             }
+            // The accelerator: the scan where the CPU has one, each ray testing only the packs
+            // whose boxes it enters.
+            assert_eq!(
+                bits(accel.intersect(o, d, 0.0, tmax)),
+                want,
+                "scene {scene}"
+            );
+            assert_eq!(
+                accel.unoccluded(o, d, 0.0, t_end, NONE),
+                free,
+                "scene {scene}"
+            );
         }
     }
     #[cfg(target_arch = "x86_64")]

@@ -110,15 +110,10 @@ pub struct Accel {
     len: usize,
     /// Bounds of every primitive (where an unbounded ray's segment ends).
     bounds: Aabb,
-    /// A scene of a few dozen triangles is scanned for closest hits instead (on a CPU with AVX2),
-    /// and whether it is open: then closest hits are scanned after the root's box test, and
-    /// shadow rays take the tree; in a closed one both are scanned.
-    small: Option<(SmallScene, bool)>,
+    /// A scene of a few dozen triangles is scanned instead (on a CPU with AVX2), pack by pack,
+    /// with the packs' boxes as the lanes of one node: a ray tests the packs whose boxes it enters.
+    small: Option<(SmallScene, Node)>,
 }
-
-/// The share of rays the root's box test must turn away for a small scene to test it before its
-/// scan: the test costs about a quarter of a scan of three packs (docs/architecture.md, "The BVH").
-const ROOT_TEST_PAYS: f32 = 0.25;
 
 /// The plane key of a primitive on no shared plane.
 pub const NO_PLANE: u32 = u32::MAX;
@@ -389,46 +384,16 @@ impl Accel {
     pub fn build(prims: &[Prim], prim_shape: &[u32], shapes: usize) -> Self {
         let mut accel = Self::build_tree(prims, prim_shape, shapes);
         if let Some(scan) = SmallScene::new(prims, |i| accel.plane_of(prim_shape[i])) {
-            let root_first = accel.root_misses(prims) > ROOT_TEST_PAYS;
-            accel.small = Some((scan, root_first));
+            let mut boxes = EMPTY_NODE;
+            for (k, [lo, hi]) in scan.bounds().iter().enumerate() {
+                for a in 0..3 {
+                    boxes.b[0][a][k] = lo[a];
+                    boxes.b[1][a][k] = hi[a];
+                }
+            }
+            accel.small = Some((scan, boxes));
         }
         accel
-    }
-
-    /// The share of rays leaving the primitives that enter none of the root's boxes: from each
-    /// centroid, just off the front of the surface, in those of 32 fixed directions in front of
-    /// it, weighted by the primitive's area (paths leave large surfaces, such as a relay wall,
-    /// more often).
-    fn root_misses(&self, prims: &[Prim]) -> f32 {
-        const DIRECTIONS: usize = 32;
-        if self.nodes.is_empty() {
-            return 1.0;
-        }
-        // A Fibonacci sphere: directions spread evenly, none along an axis.
-        let golden = std::f32::consts::PI * (3.0 - 5f32.sqrt());
-        let dirs: Vec<Vec3A> = (0..DIRECTIONS)
-            .map(|i| {
-                let z = 1.0 - (2 * i + 1) as f32 / DIRECTIONS as f32;
-                let r = (1.0 - z * z).sqrt();
-                let phi = golden * i as f32;
-                Vec3A::new(r * phi.cos(), r * phi.sin(), z)
-            })
-            .collect();
-        let (mut missed, mut total) = (0.0, 0.0);
-        for p in prims {
-            let Prim::Triangle { v, n } = p else { continue };
-            let c = (v[0] + v[1] + v[2]) / 3.0;
-            let o = c + *n * 1e-4;
-            let (mut rays, mut misses) = (0, 0);
-            for &d in dirs.iter().filter(|d| n.dot(**d) > 0.0) {
-                let ray = Ray4::new(self, o, d, 0.0, f32::INFINITY);
-                misses += (ray.enter(&self.nodes[0], f32::INFINITY).0 == 0) as u32;
-                rays += 1;
-            }
-            missed += p.area() * misses as f32;
-            total += p.area() * rays as f32;
-        }
-        if total > 0.0 { missed / total } else { 1.0 }
     }
 
     /// The tree alone, even for a small scene (what a CPU without AVX2 uses; tests compare both).
@@ -485,18 +450,12 @@ impl Accel {
         if self.nodes.is_empty() {
             return None;
         }
-        if let Some((scan, root_first)) = &self.small {
-            // In an open scene, the root's four boxes first: a ray that enters none is answered
-            // without scanning.
-            if *root_first
-                && Ray4::new(self, o, d, tmin, tmax)
-                    .enter(&self.nodes[0], tmax)
-                    .0
-                    == 0
-            {
-                return None;
-            }
-            return scan.intersect(o, d, tmin, tmax);
+        if let Some((scan, boxes)) = &self.small {
+            let packs = Ray4::new(self, o, d, tmin, tmax).enter(boxes, tmax).0;
+            return match packs {
+                0 => None,
+                _ => scan.intersect(o, d, tmin, tmax, packs),
+            };
         }
         let ray = Ray4::new(self, o, d, tmin, tmax);
         let mut best: Option<Hit> = None;
@@ -566,9 +525,9 @@ impl Accel {
         if self.len == skipped {
             return true;
         }
-        // A closed small scene: most segments meet some box, and the scan is cheaper.
-        if let Some((scan, false)) = &self.small {
-            return scan.unoccluded(o, d, tmin, tmax, skip);
+        if let Some((scan, boxes)) = &self.small {
+            let packs = Ray4::new(self, o, d, tmin, tmax).enter(boxes, tmax).0;
+            return packs == 0 || scan.unoccluded(o, d, tmin, tmax, skip, packs);
         }
         let ray = Ray4::new(self, o, d, tmin, tmax);
         let mut tmax = tmax;

@@ -1,12 +1,13 @@
 //! Rays in a scene of a few dozen triangles without walking a tree: every triangle is
-//! tested, sixteen per step (one AVX-512 vector, or two AVX2 ones). A Cornell box (36 triangles)
-//! is three steps; its closest hits took 164–211 ns a ray in the 4-wide BVH ([`super::bvh`]),
-//! three nodes and two packs of four with a stack, and take about 102 ns scanned (a
-//! micro-benchmark of random rays inside the box, docs/architecture.md). In an open scene, where most rays leave
-//! without meeting anything, [`super::bvh::Accel::intersect`] first tests the tree's root boxes,
-//! so such a ray costs no more than in the tree. Shadow rays are scanned too in a closed scene
-//! (the T behind two corners 1.05–1.18× faster); in an open one they keep the tree, whose root
-//! turns most of them away (scanned, the Z's confocal capture was 0.64× as fast).
+//! tested, sixteen per step (one AVX-512 vector, or two AVX2 ones), in up to four packs, each
+//! a run of the scene's triangles cut so that the packs' bounding boxes are small ([`runs`]: a
+//! Cornell box's walls, and each box in it, a pack of their own). [`super::bvh::Accel`] tests a
+//! ray against the packs' four boxes first, as one node of its tree, and scans the packs it
+//! enters, for closest hits and shadow rays alike. In a micro-benchmark of random rays inside a
+//! closed 36-triangle box (docs/architecture.md) a closest hit took 155–157 ns in the 4-wide BVH
+//! ([`super::bvh`]), 86–89 ns scanning every pack and 70–71 ns scanning the packs entered; from
+//! a relay wall into an open scene, where most rays enter no box, 29 ns in both the tree and
+//! the scan.
 //!
 //! Hits are those of the scalar watertight test ([`intersect_triangle`]) bit for bit: each lane
 //! runs its operations in its order (no fused multiply-add), and a lane with an edge function of
@@ -51,9 +52,13 @@ enum Isa {
     Avx2,
 }
 
-/// Every triangle of a small scene, in packs of sixteen in scene order.
+/// Every triangle of a small scene, in at most [`MAX_PACKS`] packs of up to sixteen, in scene
+/// order: consecutive runs cut where the sum of their bounding boxes' surface areas is least
+/// ([`runs`]), so that a ray can skip the packs whose box it does not enter.
 pub struct SmallScene {
     packs: Vec<Pack>,
+    /// Each pack's bounding box (low and high corners).
+    bounds: Vec<[Vec3A; 2]>,
     isa: Isa,
 }
 
@@ -162,78 +167,120 @@ impl SmallScene {
         if prims.len() > MAX_TRIANGLES {
             return None;
         }
-        let mut packs = Vec::new();
-        for (i, p) in prims.iter().enumerate() {
-            let Prim::Triangle { v, .. } = p else {
-                return None;
+        let tris = prims
+            .iter()
+            .map(|p| match p {
+                Prim::Triangle { v, .. } => Some(*v),
+                _ => None,
+            })
+            .collect::<Option<Vec<_>>>()?;
+        let (mut packs, mut bounds) = (Vec::new(), Vec::new());
+        for run in runs(&tris) {
+            let mut pack = Pack {
+                v: [[[0.0; LANES]; 3]; 3],
+                prim: [0; LANES],
+                plane: [0; LANES],
+                valid: 0,
             };
-            let lane = i % LANES;
-            if lane == 0 {
-                packs.push(Pack {
-                    v: [[[0.0; LANES]; 3]; 3],
-                    prim: [0; LANES],
-                    plane: [0; LANES],
-                    valid: 0,
-                });
-            }
-            let pack = packs.last_mut()?;
-            for (k, vk) in v.iter().enumerate() {
-                for a in 0..3 {
-                    pack.v[k][a][lane] = vk[a];
+            for (lane, i) in run.clone().enumerate() {
+                for (k, vk) in tris[i].iter().enumerate() {
+                    for a in 0..3 {
+                        pack.v[k][a][lane] = vk[a];
+                    }
                 }
+                pack.prim[lane] = i as u32;
+                pack.plane[lane] = plane(i);
+                pack.valid |= 1 << lane;
             }
-            pack.prim[lane] = i as u32;
-            pack.plane[lane] = plane(i);
-            pack.valid |= 1 << lane;
+            packs.push(pack);
+            bounds.push(bounding_box(&tris[run]));
         }
-        Some(Self { packs, isa })
+        Some(Self { packs, bounds, isa })
     }
 
-    /// Closest hit of the ray `o + t d`, `t ∈ (tmin, tmax)`; `d` must be unit length.
-    pub fn intersect(&self, o: Vec3A, d: Vec3A, tmin: f32, tmax: f32) -> Option<Hit> {
+    /// Each pack's bounding box (low and high corners), in pack order: bit `k` of the `packs`
+    /// masks [`Self::intersect`] and [`Self::unoccluded`] take.
+    pub fn bounds(&self) -> &[[Vec3A; 2]] {
+        &self.bounds
+    }
+
+    /// Closest hit of the ray `o + t d`, `t ∈ (tmin, tmax)`, among the packs `packs` (bit per
+    /// pack; [`ALL_PACKS`], or those whose boxes the ray enters); `d` must be unit length.
+    pub fn intersect(&self, o: Vec3A, d: Vec3A, tmin: f32, tmax: f32, packs: u32) -> Option<Hit> {
         // SAFETY: `isa` was detected on this CPU.
         match self.isa {
             #[cfg(target_arch = "x86_64")]
-            Isa::Avx512 => unsafe { self.intersect_avx512(o, d, tmin, tmax) },
+            Isa::Avx512 => unsafe { self.intersect_avx512(o, d, tmin, tmax, packs) },
             #[cfg(target_arch = "x86_64")]
-            Isa::Avx2 => unsafe { self.intersect_avx2(o, d, tmin, tmax) },
+            Isa::Avx2 => unsafe { self.intersect_avx2(o, d, tmin, tmax, packs) },
         }
     }
 
-    /// True if no triangle off the planes `skip` lies on the open segment `o + t d`,
-    /// `t ∈ (tmin, tmax)` (as [`super::bvh::Accel::unoccluded`]).
-    pub fn unoccluded(&self, o: Vec3A, d: Vec3A, tmin: f32, tmax: f32, skip: [u32; 2]) -> bool {
+    /// True if no triangle of the packs `packs` off the planes `skip` lies on the open segment
+    /// `o + t d`, `t ∈ (tmin, tmax)` (as [`super::bvh::Accel::unoccluded`]).
+    pub fn unoccluded(
+        &self,
+        o: Vec3A,
+        d: Vec3A,
+        tmin: f32,
+        tmax: f32,
+        skip: [u32; 2],
+        packs: u32,
+    ) -> bool {
         // SAFETY: `isa` was detected on this CPU.
         match self.isa {
             #[cfg(target_arch = "x86_64")]
-            Isa::Avx512 => unsafe { self.unoccluded_avx512(o, d, tmin, tmax, skip) },
+            Isa::Avx512 => unsafe { self.unoccluded_avx512(o, d, tmin, tmax, skip, packs) },
             #[cfg(target_arch = "x86_64")]
-            Isa::Avx2 => unsafe { self.unoccluded_avx2(o, d, tmin, tmax, skip) },
+            Isa::Avx2 => unsafe { self.unoccluded_avx2(o, d, tmin, tmax, skip, packs) },
         }
     }
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx512f")]
-    fn unoccluded_avx512(&self, o: Vec3A, d: Vec3A, tmin: f32, tmax: f32, skip: [u32; 2]) -> bool {
-        self.any_hit::<wide::Z16>(o, d, tmin, tmax, skip)
+    fn unoccluded_avx512(
+        &self,
+        o: Vec3A,
+        d: Vec3A,
+        tmin: f32,
+        tmax: f32,
+        skip: [u32; 2],
+        packs: u32,
+    ) -> bool {
+        self.any_hit::<wide::Z16>(o, d, tmin, tmax, skip, packs)
     }
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
-    fn unoccluded_avx2(&self, o: Vec3A, d: Vec3A, tmin: f32, tmax: f32, skip: [u32; 2]) -> bool {
-        self.any_hit::<wide::Y16>(o, d, tmin, tmax, skip)
+    fn unoccluded_avx2(
+        &self,
+        o: Vec3A,
+        d: Vec3A,
+        tmin: f32,
+        tmax: f32,
+        skip: [u32; 2],
+        packs: u32,
+    ) -> bool {
+        self.any_hit::<wide::Y16>(o, d, tmin, tmax, skip, packs)
     }
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx512f")]
-    fn intersect_avx512(&self, o: Vec3A, d: Vec3A, tmin: f32, tmax: f32) -> Option<Hit> {
-        self.closest::<wide::Z16>(o, d, tmin, tmax)
+    fn intersect_avx512(
+        &self,
+        o: Vec3A,
+        d: Vec3A,
+        tmin: f32,
+        tmax: f32,
+        packs: u32,
+    ) -> Option<Hit> {
+        self.closest::<wide::Z16>(o, d, tmin, tmax, packs)
     }
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
-    fn intersect_avx2(&self, o: Vec3A, d: Vec3A, tmin: f32, tmax: f32) -> Option<Hit> {
-        self.closest::<wide::Y16>(o, d, tmin, tmax)
+    fn intersect_avx2(&self, o: Vec3A, d: Vec3A, tmin: f32, tmax: f32, packs: u32) -> Option<Hit> {
+        self.closest::<wide::Y16>(o, d, tmin, tmax, packs)
     }
 
     /// The closest hit: the least distance over the packs' hit lanes, taken without a branch per
@@ -241,7 +288,14 @@ impl SmallScene {
     /// order, as in a scan that accepts a lane only if it shortens the ray. With a lane to redo in
     /// the scalar test (an edge function exactly zero), that scan itself.
     #[inline(always)]
-    fn closest<V: Wide>(&self, o: Vec3A, d: Vec3A, tmin: f32, tmax: f32) -> Option<Hit> {
+    fn closest<V: Wide>(
+        &self,
+        o: Vec3A,
+        d: Vec3A,
+        tmin: f32,
+        tmax: f32,
+        packs: u32,
+    ) -> Option<Hit> {
         let sh = shear(o, d);
         let none = Lanes {
             hit: 0,
@@ -252,7 +306,10 @@ impl SmallScene {
         };
         let mut all = [none; MAX_PACKS];
         let (mut least, mut redo) = (V::splat(f32::INFINITY), 0);
-        for (l, p) in all.iter_mut().zip(&self.packs) {
+        for (k, (l, p)) in all.iter_mut().zip(&self.packs).enumerate() {
+            if packs >> k & 1 == 0 {
+                continue;
+            }
             *l = p.test::<V>(&sh, tmin, tmax);
             least = least.min(l.t);
             redo |= l.redo;
@@ -317,10 +374,21 @@ impl SmallScene {
     /// Whether the segment is free of triangles off the planes `skip`: every pack is tested
     /// before one branch on the result; a lane to redo goes to the scalar test.
     #[inline(always)]
-    fn any_hit<V: Wide>(&self, o: Vec3A, d: Vec3A, tmin: f32, tmax: f32, skip: [u32; 2]) -> bool {
+    fn any_hit<V: Wide>(
+        &self,
+        o: Vec3A,
+        d: Vec3A,
+        tmin: f32,
+        tmax: f32,
+        skip: [u32; 2],
+        packs: u32,
+    ) -> bool {
         let sh = shear(o, d);
         let (mut hit, mut redo) = (false, false);
-        for p in &self.packs {
+        for (k, p) in self.packs.iter().enumerate() {
+            if packs >> k & 1 == 0 {
+                continue;
+            }
             let l = p.test::<V>(&sh, tmin, tmax);
             if l.hit | l.redo != 0 {
                 let kept = !p.on_planes(skip);
@@ -328,22 +396,83 @@ impl SmallScene {
                 redo |= l.redo & kept != 0;
             }
         }
-        !(hit || redo && self.redo_hits(o, d, tmin, tmax, skip))
+        !(hit || redo && self.redo_hits(o, d, tmin, tmax, skip, packs))
     }
 
     /// Whether a triangle off the planes `skip` meets the segment in the scalar test: the answer
     /// once a lane had to be redone and no other lane met it (rare).
     #[cold]
     #[inline(never)]
-    fn redo_hits(&self, o: Vec3A, d: Vec3A, tmin: f32, tmax: f32, skip: [u32; 2]) -> bool {
-        self.packs.iter().any(|p| {
-            (0..LANES).any(|lane| {
-                p.valid >> lane & 1 != 0
-                    && p.on_planes(skip) >> lane & 1 == 0
-                    && p.lane(lane, o, d, tmin, tmax).is_some()
-            })
+    fn redo_hits(
+        &self,
+        o: Vec3A,
+        d: Vec3A,
+        tmin: f32,
+        tmax: f32,
+        skip: [u32; 2],
+        packs: u32,
+    ) -> bool {
+        self.packs.iter().enumerate().any(|(k, p)| {
+            packs >> k & 1 != 0
+                && (0..LANES).any(|lane| {
+                    p.valid >> lane & 1 != 0
+                        && p.on_planes(skip) >> lane & 1 == 0
+                        && p.lane(lane, o, d, tmin, tmax).is_some()
+                })
         })
     }
+}
+
+/// Every pack, as a [`SmallScene::intersect`] or [`SmallScene::unoccluded`] mask.
+pub const ALL_PACKS: u32 = (1 << MAX_PACKS) - 1;
+
+/// Scene order cut into at most [`MAX_PACKS`] consecutive runs of at most [`LANES`] triangles,
+/// the sum of the runs' bounding-box surface areas least (a random line meets a convex box with
+/// odds in proportion to its surface, the argument of the surface area heuristic, MacDonald and
+/// Booth 1990): a Cornell box's walls, and each box standing in it, in runs of their own. Runs
+/// keep scene order, so the scan's tie rule (the lowest primitive index among equal distances)
+/// still follows pack and lane order. Dynamic programming over the cut points: at most 64
+/// triangles and four runs.
+fn runs(tris: &[[Vec3A; 3]]) -> Vec<std::ops::Range<usize>> {
+    let n = tris.len();
+    let area = |r: std::ops::Range<usize>| {
+        let [lo, hi] = bounding_box(&tris[r]);
+        let e = hi - lo;
+        2.0 * (e.x * e.y + e.y * e.z + e.z * e.x)
+    };
+    // cost[k][j]: the least area of j triangles in k runs, and where the last run starts.
+    let mut cost = vec![vec![(f32::INFINITY, 0); n + 1]; MAX_PACKS + 1];
+    cost[0][0] = (0.0, 0);
+    for k in 1..=MAX_PACKS {
+        for j in 1..=n {
+            for i in j.saturating_sub(LANES)..j {
+                let c = cost[k - 1][i].0 + area(i..j);
+                if c < cost[k][j].0 {
+                    cost[k][j] = (c, i);
+                }
+            }
+        }
+    }
+    // The fewest runs among the least areas; then back along the cuts.
+    let mut k = (1..=MAX_PACKS)
+        .min_by(|&a, &b| cost[a][n].0.total_cmp(&cost[b][n].0).then(a.cmp(&b)))
+        .unwrap_or(1);
+    let (mut j, mut out) = (n, Vec::new());
+    while j > 0 {
+        let i = cost[k][j].1;
+        out.push(i..j);
+        (j, k) = (i, k - 1);
+    }
+    out.reverse();
+    out
+}
+
+/// The bounding box of triangles (low and high corners).
+fn bounding_box(tris: &[[Vec3A; 3]]) -> [Vec3A; 2] {
+    tris.iter().flatten().fold(
+        [Vec3A::splat(f32::INFINITY), Vec3A::splat(f32::NEG_INFINITY)],
+        |[lo, hi], &v| [lo.min(v), hi.max(v)],
+    )
 }
 
 /// One vertex `v` of the lanes relative to the ray's origin, permuted by `k` and sheared.
