@@ -111,8 +111,9 @@ pub struct Accel {
     /// Bounds of every primitive (where an unbounded ray's segment ends).
     bounds: Aabb,
     /// A scene of a few dozen triangles is scanned instead (on a CPU with AVX2), pack by pack,
-    /// with the packs' boxes as the lanes of one node: a ray tests the packs whose boxes it enters.
-    small: Option<(SmallScene, Node)>,
+    /// with the packs' boxes as the lanes of up to four nodes: a ray scans the packs whose boxes
+    /// it enters.
+    small: Option<(SmallScene, Vec<Node>)>,
 }
 
 /// The plane key of a primitive on no shared plane.
@@ -384,16 +385,26 @@ impl Accel {
     pub fn build(prims: &[Prim], prim_shape: &[u32], shapes: usize) -> Self {
         let mut accel = Self::build_tree(prims, prim_shape, shapes);
         if let Some(scan) = SmallScene::new(prims, |i| accel.plane_of(prim_shape[i])) {
-            let mut boxes = EMPTY_NODE;
+            let mut boxes = vec![EMPTY_NODE; scan.bounds().len().div_ceil(4)];
             for (k, [lo, hi]) in scan.bounds().iter().enumerate() {
                 for a in 0..3 {
-                    boxes.b[0][a][k] = lo[a];
-                    boxes.b[1][a][k] = hi[a];
+                    boxes[k / 4].b[0][a][k % 4] = lo[a];
+                    boxes[k / 4].b[1][a][k % 4] = hi[a];
                 }
             }
             accel.small = Some((scan, boxes));
         }
         accel
+    }
+
+    /// The small scene's packs whose boxes (`boxes`, four per node) the ray enters before `tmax`
+    /// (bit per pack).
+    #[inline]
+    fn packs_entered(ray: &Ray4, boxes: &[Node], tmax: f32) -> u32 {
+        boxes
+            .iter()
+            .enumerate()
+            .fold(0, |m, (i, node)| m | ray.enter(node, tmax).0 << (4 * i))
     }
 
     /// The tree alone, even for a small scene (what a CPU without AVX2 uses; tests compare both).
@@ -451,7 +462,7 @@ impl Accel {
             return None;
         }
         if let Some((scan, boxes)) = &self.small {
-            let packs = Ray4::new(self, o, d, tmin, tmax).enter(boxes, tmax).0;
+            let packs = Self::packs_entered(&Ray4::new(self, o, d, tmin, tmax), boxes, tmax);
             return match packs {
                 0 => None,
                 _ => scan.intersect(o, d, tmin, tmax, packs),
@@ -526,7 +537,7 @@ impl Accel {
             return true;
         }
         if let Some((scan, boxes)) = &self.small {
-            let packs = Ray4::new(self, o, d, tmin, tmax).enter(boxes, tmax).0;
+            let packs = Self::packs_entered(&Ray4::new(self, o, d, tmin, tmax), boxes, tmax);
             return packs == 0 || scan.unoccluded(o, d, tmin, tmax, skip, packs);
         }
         let ray = Ray4::new(self, o, d, tmin, tmax);

@@ -1,13 +1,11 @@
-//! Rays in a scene of a few dozen triangles without walking a tree: every triangle is
-//! tested, sixteen per step (one AVX-512 vector, or two AVX2 ones), in up to four packs, each
-//! a run of the scene's triangles cut so that the packs' bounding boxes are small ([`runs`]: a
-//! Cornell box's walls, and each box in it, a pack of their own). [`super::bvh::Accel`] tests a
-//! ray against the packs' four boxes first, as one node of its tree, and scans the packs it
-//! enters, for closest hits and shadow rays alike. In a micro-benchmark of random rays inside a
-//! closed 36-triangle box (docs/architecture.md) a closest hit took 155–157 ns in the 4-wide BVH
-//! ([`super::bvh`]), 86–89 ns scanning every pack and 70–71 ns scanning the packs entered; from
-//! a relay wall into an open scene, where most rays enter no box, 29 ns in both the tree and
-//! the scan.
+//! Rays in a scene of a few dozen triangles without walking a tree: every triangle of the packs a
+//! ray enters is tested, sixteen per step (one AVX-512 vector, or two AVX2 ones). The triangles
+//! sit in up to sixteen packs, runs of scene order cut so that the rays a scene's paths trace
+//! enter few of their bounding boxes ([`runs`]: a Cornell box's five walls, its light and each box
+//! in it a pack of their own), and [`super::bvh::Accel`] tests a ray against the packs' boxes
+//! first, four per node of its tree, then scans the packs it enters — closest hits and shadow
+//! rays alike, in open scenes and closed ones. Micro-benchmark figures are in
+//! docs/architecture.md ("The BVH").
 //!
 //! Hits are those of the scalar watertight test ([`intersect_triangle`]) bit for bit: each lane
 //! runs its operations in its order (no fused multiply-add), and a lane with an edge function of
@@ -26,8 +24,8 @@ const LANES: usize = 16;
 /// Most triangles a scene may have to be scanned instead of traversed: four steps, where the BVH
 /// of such a scene is about three nodes and two packs of four per closest hit.
 pub const MAX_TRIANGLES: usize = 64;
-/// Most packs of a small scene.
-const MAX_PACKS: usize = MAX_TRIANGLES / LANES;
+/// Most packs of a small scene: their boxes are the lanes of four of the tree's nodes.
+const MAX_PACKS: usize = 16;
 
 /// Sixteen triangles, one per lane.
 #[derive(Clone, Copy)]
@@ -59,6 +57,8 @@ pub struct SmallScene {
     packs: Vec<Pack>,
     /// Each pack's bounding box (low and high corners).
     bounds: Vec<[Vec3A; 2]>,
+    /// A bit for each pack.
+    all: u32,
     isa: Isa,
 }
 
@@ -192,10 +192,15 @@ impl SmallScene {
                 pack.plane[lane] = plane(i);
                 pack.valid |= 1 << lane;
             }
-            packs.push(pack);
             bounds.push(bounding_box(&tris[run]));
+            packs.push(pack);
         }
-        Some(Self { packs, bounds, isa })
+        Some(Self {
+            all: (1 << packs.len()) - 1,
+            packs,
+            bounds,
+            isa,
+        })
     }
 
     /// Each pack's bounding box (low and high corners), in pack order: bit `k` of the `packs`
@@ -205,7 +210,7 @@ impl SmallScene {
     }
 
     /// Closest hit of the ray `o + t d`, `t ∈ (tmin, tmax)`, among the packs `packs` (bit per
-    /// pack; [`ALL_PACKS`], or those whose boxes the ray enters); `d` must be unit length.
+    /// pack: those whose boxes the ray enters, or all); `d` must be unit length.
     pub fn intersect(&self, o: Vec3A, d: Vec3A, tmin: f32, tmax: f32, packs: u32) -> Option<Hit> {
         // SAFETY: `isa` was detected on this CPU.
         match self.isa {
@@ -283,10 +288,11 @@ impl SmallScene {
         self.closest::<wide::Y16>(o, d, tmin, tmax, packs)
     }
 
-    /// The closest hit: the least distance over the packs' hit lanes, taken without a branch per
-    /// lane (a scan with one measured the same), then the first lane at that distance in scene
-    /// order, as in a scan that accepts a lane only if it shortens the ray. With a lane to redo in
-    /// the scalar test (an edge function exactly zero), that scan itself.
+    /// The closest hit, without a branch per lane or per pack: each lane keeps the least
+    /// distance its triangles in the packs entered reach (and, at equal distances, the earliest
+    /// pack's), then among the lanes at the least distance over all, the lowest primitive index —
+    /// the hit a scan in scene order that accepts a triangle only if it shortens the ray keeps.
+    /// With a lane to redo in the scalar test (an edge function exactly zero), that scan itself.
     #[inline(always)]
     fn closest<V: Wide>(
         &self,
@@ -297,56 +303,63 @@ impl SmallScene {
         packs: u32,
     ) -> Option<Hit> {
         let sh = shear(o, d);
-        let none = Lanes {
-            hit: 0,
-            redo: 0,
-            t: V::splat(f32::INFINITY),
-            b1: V::splat(0.0),
-            b2: V::splat(0.0),
-        };
-        let mut all = [none; MAX_PACKS];
-        let (mut least, mut redo) = (V::splat(f32::INFINITY), 0);
-        for (k, (l, p)) in all.iter_mut().zip(&self.packs).enumerate() {
-            if packs >> k & 1 == 0 {
-                continue;
-            }
-            *l = p.test::<V>(&sh, tmin, tmax);
-            least = least.min(l.t);
+        let inf = V::splat(f32::INFINITY);
+        let (mut t, mut b1, mut b2, mut prim) = (inf, inf, inf, inf);
+        let (mut left, mut redo) = (packs & self.all, 0);
+        while left != 0 {
+            let p = &self.packs[left.trailing_zeros() as usize];
+            left &= left - 1;
+            let l = p.test::<V>(&sh, tmin, tmax);
             redo |= l.redo;
+            let closer = l.t.lt(t);
+            t = V::select(closer, l.t, t);
+            b1 = V::select(closer, l.b1, b1);
+            b2 = V::select(closer, l.b2, b2);
+            prim = V::select(closer, V::load_bits(&p.prim), prim);
         }
         if redo != 0 {
-            return self.scan(&all, o, d, tmin, tmax);
+            return self.scan::<V>(&sh, o, d, tmin, tmax, packs);
         }
-        let t = least.reduce_min();
-        if t == f32::INFINITY {
+        let least = t.reduce_min();
+        if least == f32::INFINITY {
             return None;
         }
-        let (pack, l, at_t) = all.iter().enumerate().find_map(|(pack, l)| {
-            let at_t = l.t.eq(V::splat(t));
-            (at_t != 0).then_some((pack, l, at_t))
-        })?;
-        let lane = at_t.trailing_zeros() as usize;
+        let (mut at_least, prims) = (t.eq(V::splat(least)), prim.store());
+        let mut lane = at_least.trailing_zeros() as usize;
+        at_least &= at_least - 1;
+        while at_least != 0 {
+            let other = at_least.trailing_zeros() as usize;
+            at_least &= at_least - 1;
+            if prims[other].to_bits() < prims[lane].to_bits() {
+                lane = other;
+            }
+        }
         Some(Hit {
-            t,
-            prim: self.packs[pack].prim[lane],
-            b: [l.b1.lane(lane), l.b2.lane(lane)],
+            t: least,
+            prim: prims[lane].to_bits(),
+            b: [b1.lane(lane), b2.lane(lane)],
         })
     }
 
-    /// The closest hit from the packs' lanes `all` in scene order, a lane accepted only if it
-    /// shortens the ray; lanes to redo go to the scalar test.
+    /// The closest hit over the packs `packs` in scene order, a lane accepted only if it shortens
+    /// the ray; lanes to redo go to the scalar test.
     #[cold]
     #[inline(never)]
     fn scan<V: Wide>(
         &self,
-        all: &[Lanes<V>],
+        sh: &Shear,
         o: Vec3A,
         d: Vec3A,
         tmin: f32,
-        mut tmax: f32,
+        tmax: f32,
+        packs: u32,
     ) -> Option<Hit> {
-        let mut best = None;
-        for (p, l) in self.packs.iter().zip(all) {
+        let (mut best, mut shortest) = (None, tmax);
+        for (k, p) in self.packs.iter().enumerate() {
+            if packs >> k & 1 == 0 {
+                continue;
+            }
+            let l = p.test::<V>(sh, tmin, tmax);
             let mut lanes = l.hit | l.redo;
             while lanes != 0 {
                 let lane = lanes.trailing_zeros() as usize;
@@ -354,12 +367,12 @@ impl SmallScene {
                 let found = if l.hit >> lane & 1 != 0 {
                     Some((l.t.lane(lane), l.b1.lane(lane), l.b2.lane(lane)))
                 } else {
-                    p.lane(lane, o, d, tmin, tmax)
+                    p.lane(lane, o, d, tmin, shortest)
                 };
                 if let Some((t, b1, b2)) = found
-                    && t < tmax
+                    && t < shortest
                 {
-                    tmax = t;
+                    shortest = t;
                     best = Some(Hit {
                         t,
                         prim: p.prim[lane],
@@ -385,10 +398,10 @@ impl SmallScene {
     ) -> bool {
         let sh = shear(o, d);
         let (mut hit, mut redo) = (false, false);
-        for (k, p) in self.packs.iter().enumerate() {
-            if packs >> k & 1 == 0 {
-                continue;
-            }
+        let mut left = packs & self.all;
+        while left != 0 {
+            let p = &self.packs[left.trailing_zeros() as usize];
+            left &= left - 1;
             let l = p.test::<V>(&sh, tmin, tmax);
             if l.hit | l.redo != 0 {
                 let kept = !p.on_planes(skip);
@@ -427,35 +440,59 @@ impl SmallScene {
 pub const ALL_PACKS: u32 = (1 << MAX_PACKS) - 1;
 
 /// Scene order cut into at most [`MAX_PACKS`] consecutive runs of at most [`LANES`] triangles,
-/// the sum of the runs' bounding-box surface areas least (a random line meets a convex box with
-/// odds in proportion to its surface, the argument of the surface area heuristic, MacDonald and
-/// Booth 1990): a Cornell box's walls, and each box standing in it, in runs of their own. Runs
-/// keep scene order, so the scan's tie rule (the lowest primitive index among equal distances)
-/// still follows pack and lane order. Dynamic programming over the cut points: at most 64
-/// triangles and four runs.
+/// so that the rays the scene's paths trace enter as few of the runs' bounding boxes as they can
+/// (every box a ray enters is a pack it scans). Those rays are modelled by probes ([`probes`]):
+/// rays leaving each triangle's front (closest hits) and segments between triangles (shadow
+/// rays), weighted by area. A ray that leaves a flat box never enters it again, and a segment
+/// inside a room meets none of its walls, so a Cornell box's walls come out as packs of their own
+/// (the surface area heuristic, which counts lines from outside the boxes, would keep the room in
+/// one box, which every ray inside it enters), and each box standing in the room as another.
+/// Runs keep scene order, so the scan's tie rule (the lowest primitive index among equal
+/// distances) still follows pack and lane order. Dynamic programming over the cut points (at
+/// most 64 triangles, 16 runs).
 fn runs(tris: &[[Vec3A; 3]]) -> Vec<std::ops::Range<usize>> {
+    /// What a pack costs beyond its scan: its lane of the box test (fewer packs on a tie).
+    const PACK: f32 = 0.01;
+    /// What each four packs cost every ray: one node's box test, about a quarter of a pack's
+    /// scan (with the Z's shadow rays, which rarely enter a pack, six packs rendered 0.81× as
+    /// fast as four).
+    const NODE: f32 = 0.25;
     let n = tris.len();
-    let area = |r: std::ops::Range<usize>| {
-        let [lo, hi] = bounding_box(&tris[r]);
-        let e = hi - lo;
-        2.0 * (e.x * e.y + e.y * e.z + e.z * e.x)
-    };
-    // cost[k][j]: the least area of j triangles in k runs, and where the last run starts.
+    let probes = probes(tris);
+    let total: f32 = probes.iter().map(|p| p.3).sum();
+    // entered[i][len - 1]: the probes' weight (a share of the total) entering the box of
+    // i..i + len.
+    let entered: Vec<Vec<f32>> = (0..n)
+        .map(|i| {
+            (i + 1..=n.min(i + LANES))
+                .map(|j| {
+                    let [lo, hi] = bounding_box(&tris[i..j]);
+                    let w: f32 = probes
+                        .iter()
+                        .filter(|(o, inv, tmax, _)| enters(lo, hi, *o, *inv, *tmax))
+                        .map(|p| p.3)
+                        .sum();
+                    if total > 0.0 { w / total } else { 0.0 }
+                })
+                .collect()
+        })
+        .collect();
+    // cost[k][j]: the least cost of j triangles in k runs, and where the last run starts.
     let mut cost = vec![vec![(f32::INFINITY, 0); n + 1]; MAX_PACKS + 1];
     cost[0][0] = (0.0, 0);
     for k in 1..=MAX_PACKS {
         for j in 1..=n {
             for i in j.saturating_sub(LANES)..j {
-                let c = cost[k - 1][i].0 + area(i..j);
+                let c = cost[k - 1][i].0 + entered[i][j - i - 1] + PACK;
                 if c < cost[k][j].0 {
                     cost[k][j] = (c, i);
                 }
             }
         }
     }
-    // The fewest runs among the least areas; then back along the cuts.
+    let total = |k: usize| cost[k][n].0 + NODE * k.div_ceil(4) as f32;
     let mut k = (1..=MAX_PACKS)
-        .min_by(|&a, &b| cost[a][n].0.total_cmp(&cost[b][n].0).then(a.cmp(&b)))
+        .min_by(|&a, &b| total(a).total_cmp(&total(b)).then(a.cmp(&b)))
         .unwrap_or(1);
     let (mut j, mut out) = (n, Vec::new());
     while j > 0 {
@@ -465,6 +502,77 @@ fn runs(tris: &[[Vec3A; 3]]) -> Vec<std::ops::Range<usize>> {
     }
     out.reverse();
     out
+}
+
+/// Probes for [`runs`], as (origin, reciprocal direction, end, weight), half of the weight in
+/// rays and half in segments. Rays: from each triangle's centroid, just off its front face, in
+/// each of 16 fixed directions (a Fibonacci sphere, none along an axis) in front of it, weighted
+/// by the triangle's area. Segments: from each triangle's centroid to those of up to eight others
+/// spread through scene order, ending just short, weighted by the product of their areas.
+fn probes(tris: &[[Vec3A; 3]]) -> Vec<(Vec3A, Vec3A, f32, f32)> {
+    const DIRECTIONS: usize = 16;
+    const PARTNERS: usize = 8;
+    let golden = std::f32::consts::PI * (3.0 - 5f32.sqrt());
+    let dirs: Vec<Vec3A> = (0..DIRECTIONS)
+        .map(|i| {
+            let z = 1.0 - (2 * i + 1) as f32 / DIRECTIONS as f32;
+            let r = (1.0 - z * z).sqrt();
+            let phi = golden * i as f32;
+            Vec3A::new(r * phi.cos(), r * phi.sin(), z)
+        })
+        .collect();
+    let eps = 1e-4
+        * (1.0
+            + tris
+                .iter()
+                .flatten()
+                .fold(0.0f32, |m, v| m.max(v.abs().max_element())));
+    // Each triangle's centroid, unit normal and area (degenerate ones have none).
+    let faces: Vec<(Vec3A, Vec3A, f32)> = tris
+        .iter()
+        .filter_map(|[a, b, c]| {
+            let n = (*b - *a).cross(*c - *a);
+            Some(((*a + *b + *c) / 3.0, n.try_normalize()?, 0.5 * n.length()))
+        })
+        .collect();
+    let (mut rays, mut segments) = (Vec::new(), Vec::new());
+    for (i, &(c, n, area)) in faces.iter().enumerate() {
+        let front: Vec<Vec3A> = dirs.iter().copied().filter(|d| n.dot(*d) > 0.0).collect();
+        let w = area / front.len().max(1) as f32;
+        rays.extend(
+            front
+                .into_iter()
+                .map(|d| (c + n * eps, d.recip(), f32::INFINITY, w)),
+        );
+        for m in 0..PARTNERS.min(faces.len() - 1) {
+            let (c2, _, area2) = faces[(i + 1 + m * faces.len() / PARTNERS) % faces.len()];
+            let o = c + n * eps.copysign(n.dot(c2 - c));
+            let Some(d) = (c2 - o).try_normalize() else {
+                continue;
+            };
+            segments.push((o, d.recip(), (c2 - o).length() - eps, area * area2));
+        }
+    }
+    // Half the weight each.
+    let sum = |v: &[(Vec3A, Vec3A, f32, f32)]| v.iter().map(|p| p.3).sum::<f32>();
+    let (wr, ws) = (sum(&rays), sum(&segments));
+    for p in &mut rays {
+        p.3 /= wr;
+    }
+    for p in &mut segments {
+        p.3 /= ws;
+    }
+    rays.extend(segments);
+    rays
+}
+
+/// Whether the ray from `o` with reciprocal direction `inv` enters the box `lo`–`hi` before
+/// `tmax`.
+fn enters(lo: Vec3A, hi: Vec3A, o: Vec3A, inv: Vec3A, tmax: f32) -> bool {
+    let (t0, t1) = ((lo - o) * inv, (hi - o) * inv);
+    let near = t0.min(t1).max_element().max(0.0);
+    let far = t0.max(t1).min_element().min(tmax);
+    near <= far
 }
 
 /// The bounding box of triangles (low and high corners).
@@ -518,12 +626,13 @@ fn supported() -> Vec<Isa> {
 trait Wide: Copy {
     fn splat(x: f32) -> Self;
     fn load(a: &[f32; LANES]) -> Self;
+    /// The bits of `a`, lane by lane.
+    fn load_bits(a: &[u32; LANES]) -> Self;
     fn store(self) -> [f32; LANES];
     fn add(self, b: Self) -> Self;
     fn sub(self, b: Self) -> Self;
     fn mul(self, b: Self) -> Self;
     fn div(self, b: Self) -> Self;
-    fn min(self, b: Self) -> Self;
     /// `a` in the lanes of `mask`, `b` in the others.
     fn select(mask: u32, a: Self, b: Self) -> Self;
     /// The least lane (no lane is NaN).
@@ -561,6 +670,10 @@ mod wide {
             Self(unsafe { _mm512_loadu_ps(a.as_ptr()) })
         }
         #[inline(always)]
+        fn load_bits(a: &[u32; LANES]) -> Self {
+            Self(unsafe { _mm512_castsi512_ps(_mm512_loadu_si512(a.as_ptr().cast())) })
+        }
+        #[inline(always)]
         fn store(self) -> [f32; LANES] {
             let mut a = [0.0; LANES];
             unsafe { _mm512_storeu_ps(a.as_mut_ptr(), self.0) };
@@ -581,10 +694,6 @@ mod wide {
         #[inline(always)]
         fn div(self, b: Self) -> Self {
             Self(unsafe { _mm512_div_ps(self.0, b.0) })
-        }
-        #[inline(always)]
-        fn min(self, b: Self) -> Self {
-            Self(unsafe { _mm512_min_ps(self.0, b.0) })
         }
         #[inline(always)]
         fn select(mask: u32, a: Self, b: Self) -> Self {
@@ -639,6 +748,15 @@ mod wide {
             }
         }
         #[inline(always)]
+        fn load_bits(a: &[u32; LANES]) -> Self {
+            unsafe {
+                Self(
+                    _mm256_castsi256_ps(_mm256_loadu_si256(a.as_ptr().cast())),
+                    _mm256_castsi256_ps(_mm256_loadu_si256(a.as_ptr().add(8).cast())),
+                )
+            }
+        }
+        #[inline(always)]
         fn store(self) -> [f32; LANES] {
             let mut a = [0.0; LANES];
             unsafe {
@@ -662,10 +780,6 @@ mod wide {
         #[inline(always)]
         fn div(self, b: Self) -> Self {
             self.zip(b, |x, y| unsafe { _mm256_div_ps(x, y) })
-        }
-        #[inline(always)]
-        fn min(self, b: Self) -> Self {
-            self.zip(b, |x, y| unsafe { _mm256_min_ps(x, y) })
         }
         #[inline(always)]
         fn select(mask: u32, a: Self, b: Self) -> Self {
