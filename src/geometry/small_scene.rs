@@ -21,8 +21,7 @@ use glam::Vec3A;
 
 /// Triangles per step.
 const LANES: usize = 16;
-/// Most triangles a scene may have to be scanned instead of traversed: four steps, where the BVH
-/// of such a scene is about three nodes and two packs of four per closest hit.
+/// Most triangles a scene may have to be scanned instead of traversed (four full packs).
 pub const MAX_TRIANGLES: usize = 64;
 /// Most packs of a small scene: their boxes are the lanes of four of the tree's nodes.
 const MAX_PACKS: usize = 16;
@@ -51,8 +50,8 @@ enum Isa {
 }
 
 /// Every triangle of a small scene, in at most [`MAX_PACKS`] packs of up to sixteen, in scene
-/// order: consecutive runs cut where the sum of their bounding boxes' surface areas is least
-/// ([`runs`]), so that a ray can skip the packs whose box it does not enter.
+/// order: consecutive runs cut so that the scene's rays enter few of their boxes ([`runs`]), and
+/// a ray scans only the packs whose boxes it enters.
 pub struct SmallScene {
     packs: Vec<Pack>,
     /// Each pack's bounding box (low and high corners).
