@@ -2,8 +2,10 @@
 both on the same threads, warm, interleaved, best of repeats (the machine's speed drifts by up to
 1.5x between runs, alike for both). Prints paths/s and the ratio per
 workload as a Markdown table, and nlos_rs's scaling from 1 to 2 threads from 9 renders at each
-count, alternately: the best of each, and their total time (which averages over the machine's
-speed changes instead of catching its fastest moments), with the cores the fastest 2-thread render
+count, alternately: the best of each, their total time (which averages over the machine's
+speed changes instead of catching its fastest moments) and the median of the nine paired ratios
+(each 1-thread render over the 2-thread render right after it, which met about the same machine
+state; one fast or slow moment moves it least), with the cores the fastest 2-thread render
 kept busy (process CPU time over wall time): the scaling is what a user sees, the busy cores
 whether the render leaves a core idle (on a machine whose cores change speed independently the two
 differ).
@@ -22,6 +24,7 @@ from __future__ import annotations
 import argparse
 import os
 import platform
+import statistics
 import time
 from pathlib import Path
 
@@ -158,11 +161,11 @@ def main() -> None:
 
         print(f"\n{platform.processor() or platform.machine()}, {os.cpu_count()} cores, {args.threads} threads, "
               f"nlos_rs {nlos_rs.__version__}, mitransient 1.3.1 (llvm_ad), best of {args.repeats}\n")
-        print("| workload | paths | nlos_rs (M paths/s) | mitransient (M paths/s) | ratio | 1→2 threads, best | total | cores busy |")
-        print("|---|---:|---:|---:|---:|---:|---:|---:|")
-        for name, paths, a, b, r, sc, total, busy in rows:
+        print("| workload | paths | nlos_rs (M paths/s) | mitransient (M paths/s) | ratio | 1→2 threads, best | total | paired median | cores busy |")
+        print("|---|---:|---:|---:|---:|---:|---:|---:|---:|")
+        for name, paths, a, b, r, sc, total, paired, busy in rows:
             print(f"| {name} | {float(paths) / 1e6:.1f} M | {float(a):.2f} | {float(b):.2f} | **{float(r):.2f}×** | {float(sc):.2f}× "
-                  f"| {float(total):.2f}× | {float(busy):.2f} |")
+                  f"| {float(total):.2f}× | {float(paired):.2f}× | {float(busy):.2f} |")
         return
 
     import nlos_rs
@@ -214,6 +217,7 @@ def main() -> None:
         wall, cpu = min(many)
         scaling, busy = min(one) / wall, cpu / wall
         scaling_total = sum(one) / sum(w for w, _ in many)
+        scaling_paired = statistics.median(a / w for a, (w, _) in zip(one, many))
         theirs_scene = mi.load_file(d[0]) if isinstance(d, tuple) else mi.load_dict(to_mitsuba(d))
         theirs()
         to, tt = [], []
@@ -221,9 +225,9 @@ def main() -> None:
             to.append(ours())
             tt.append(theirs())
         mo, mt = min(to), min(tt)
-        rows.append((name, paths, paths / mo / 1e6, paths / mt / 1e6, mt / mo, scaling, scaling_total, busy))
+        rows.append((name, paths, paths / mo / 1e6, paths / mt / 1e6, mt / mo, scaling, scaling_total, scaling_paired, busy))
         print(f"{name:16s} {paths / 1e6:8.1f} M paths  nlos_rs {paths / mo / 1e6:7.2f}  mitransient {paths / mt / 1e6:7.2f} "
-              f"M paths/s  ratio {mt / mo:5.2f}x  scaling 1->{args.threads} threads {scaling:4.2f}x (total {scaling_total:4.2f}x)  "
+              f"M paths/s  ratio {mt / mo:5.2f}x  scaling 1->{args.threads} threads {scaling:4.2f}x (total {scaling_total:4.2f}x, paired median {scaling_paired:4.2f}x)  "
               f"cores busy {busy:4.2f}",
               flush=True)
 
