@@ -6,9 +6,20 @@ use glam::Vec3A;
 use nlos_rs::geometry::{
     Prim,
     bvh::{Accel, NO_PLANE, intersect_brute},
-    small_scene::{ALL_PACKS, MAX_TRIANGLES, SmallScene},
+    small_scene::{ALL_PACKS, MAX_TRIANGLES, Query, SmallScene},
 };
 use nlos_rs::sampling::{Sampler, square_to_uniform_sphere};
+
+/// Every pack of the scan, along `o + t d`, `t ∈ (tmin, tmax)`.
+fn every_pack(o: Vec3A, d: Vec3A, tmin: f32, tmax: f32) -> Query {
+    Query {
+        o,
+        d,
+        tmin,
+        tmax,
+        packs: ALL_PACKS,
+    }
+}
 
 /// Skip no plane.
 const NONE: [u32; 2] = [NO_PLANE; 2];
@@ -479,7 +490,7 @@ fn small_scene_scan_is_brute_force_bit_for_bit() {
                 h.map(|h| (h.t.to_bits(), h.prim, h.b.map(f32::to_bits)))
             };
             for scan in &scans {
-                let got = scan.intersect(o, d, 1e-4, tmax, ALL_PACKS);
+                let got = scan.intersect(every_pack(o, d, 1e-4, tmax));
                 assert_eq!(bits(got), bits(want), "{o:?} + t {d:?} up to {tmax}");
             }
             // The scene's accelerator is the scan where there is one. The tree finds the same
@@ -515,7 +526,7 @@ fn small_scene_scan_is_brute_force_bit_for_bit() {
                 .all(|(_, p)| p.intersect(o, d, 1e-4, t_end).is_none());
             for scan in &scans {
                 assert_eq!(
-                    scan.unoccluded(o, d, 1e-4, t_end, skip, ALL_PACKS),
+                    scan.unoccluded(every_pack(o, d, 1e-4, t_end), skip),
                     free,
                     "{o:?} + t {d:?}"
                 );
@@ -610,12 +621,12 @@ fn small_scene_scan_matches_brute_force_on_random_and_degenerate_scenes() {
             let free = intersect_brute(&prims, o, d, 0.0, t_end).is_none();
             for scan in &scans {
                 assert_eq!(
-                    bits(scan.intersect(o, d, 0.0, tmax, ALL_PACKS)),
+                    bits(scan.intersect(every_pack(o, d, 0.0, tmax))),
                     want,
                     "scene {scene}: {o:?} + t {d:?}"
                 );
                 assert_eq!(
-                    scan.unoccluded(o, d, 0.0, t_end, NONE, ALL_PACKS),
+                    scan.unoccluded(every_pack(o, d, 0.0, t_end), NONE),
                     free,
                     "scene {scene}: {o:?} + t {d:?}"
                 );

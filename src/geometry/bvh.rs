@@ -20,7 +20,7 @@
 //!   ill-conditioned: they visit every node whose box overlaps the box of their segment (clipped
 //!   to the scene), which is conservative and few nodes for a ray along an axis.
 
-use super::small_scene::SmallScene;
+use super::small_scene::{Query, SmallScene};
 use super::{Hit, Prim, intersect_triangle, watertight_shear};
 use glam::{BVec4A, Vec3A, Vec4};
 use obvhs::{
@@ -465,7 +465,13 @@ impl Accel {
             let packs = Self::packs_entered(&Ray4::new(self, o, d, tmin, tmax), boxes, tmax);
             return match packs {
                 0 => None,
-                _ => scan.intersect(o, d, tmin, tmax, packs),
+                _ => scan.intersect(Query {
+                    o,
+                    d,
+                    tmin,
+                    tmax,
+                    packs,
+                }),
             };
         }
         let ray = Ray4::new(self, o, d, tmin, tmax);
@@ -538,7 +544,14 @@ impl Accel {
         }
         if let Some((scan, boxes)) = &self.small {
             let packs = Self::packs_entered(&Ray4::new(self, o, d, tmin, tmax), boxes, tmax);
-            return packs == 0 || scan.unoccluded(o, d, tmin, tmax, skip, packs);
+            let q = Query {
+                o,
+                d,
+                tmin,
+                tmax,
+                packs,
+            };
+            return packs == 0 || scan.unoccluded(q, skip);
         }
         let ray = Ray4::new(self, o, d, tmin, tmax);
         let mut tmax = tmax;

@@ -69,6 +69,22 @@ struct Shear {
     s: [f32; 3],
 }
 
+/// A ray query of the scan: the ray `o + t d` (`d` of unit length), `t ∈ (tmin, tmax)`, over the
+/// packs `packs` (bit per pack: those whose boxes the ray enters, or [`ALL_PACKS`]).
+#[derive(Clone, Copy, Debug)]
+pub struct Query {
+    /// Origin.
+    pub o: Vec3A,
+    /// Unit direction.
+    pub d: Vec3A,
+    /// Where the open interval starts.
+    pub tmin: f32,
+    /// Where it ends.
+    pub tmax: f32,
+    /// The packs to scan.
+    pub packs: u32,
+}
+
 /// One step's lanes: hit in `(tmin, tmax)` and to redo in the scalar test (bit per lane), each
 /// hit lane's distance (+∞ in the others) and barycentrics.
 #[derive(Clone, Copy)]
@@ -208,83 +224,51 @@ impl SmallScene {
         &self.bounds
     }
 
-    /// Closest hit of the ray `o + t d`, `t ∈ (tmin, tmax)`, among the packs `packs` (bit per
-    /// pack: those whose boxes the ray enters, or all); `d` must be unit length.
-    pub fn intersect(&self, o: Vec3A, d: Vec3A, tmin: f32, tmax: f32, packs: u32) -> Option<Hit> {
+    /// The closest hit of the query's ray among its packs.
+    pub fn intersect(&self, q: Query) -> Option<Hit> {
         // SAFETY: `isa` was detected on this CPU.
         match self.isa {
             #[cfg(target_arch = "x86_64")]
-            Isa::Avx512 => unsafe { self.intersect_avx512(o, d, tmin, tmax, packs) },
+            Isa::Avx512 => unsafe { self.intersect_avx512(q) },
             #[cfg(target_arch = "x86_64")]
-            Isa::Avx2 => unsafe { self.intersect_avx2(o, d, tmin, tmax, packs) },
+            Isa::Avx2 => unsafe { self.intersect_avx2(q) },
         }
     }
 
-    /// True if no triangle of the packs `packs` off the planes `skip` lies on the open segment
-    /// `o + t d`, `t ∈ (tmin, tmax)` (as [`super::bvh::Accel::unoccluded`]).
-    pub fn unoccluded(
-        &self,
-        o: Vec3A,
-        d: Vec3A,
-        tmin: f32,
-        tmax: f32,
-        skip: [u32; 2],
-        packs: u32,
-    ) -> bool {
+    /// True if no triangle of the query's packs off the planes `skip` lies on its open segment
+    /// (as [`super::bvh::Accel::unoccluded`]).
+    pub fn unoccluded(&self, q: Query, skip: [u32; 2]) -> bool {
         // SAFETY: `isa` was detected on this CPU.
         match self.isa {
             #[cfg(target_arch = "x86_64")]
-            Isa::Avx512 => unsafe { self.unoccluded_avx512(o, d, tmin, tmax, skip, packs) },
+            Isa::Avx512 => unsafe { self.unoccluded_avx512(q, skip) },
             #[cfg(target_arch = "x86_64")]
-            Isa::Avx2 => unsafe { self.unoccluded_avx2(o, d, tmin, tmax, skip, packs) },
+            Isa::Avx2 => unsafe { self.unoccluded_avx2(q, skip) },
         }
     }
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx512f")]
-    fn unoccluded_avx512(
-        &self,
-        o: Vec3A,
-        d: Vec3A,
-        tmin: f32,
-        tmax: f32,
-        skip: [u32; 2],
-        packs: u32,
-    ) -> bool {
-        self.any_hit::<wide::Z16>(o, d, tmin, tmax, skip, packs)
+    fn unoccluded_avx512(&self, q: Query, skip: [u32; 2]) -> bool {
+        self.any_hit::<wide::Z16>(q, skip)
     }
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
-    fn unoccluded_avx2(
-        &self,
-        o: Vec3A,
-        d: Vec3A,
-        tmin: f32,
-        tmax: f32,
-        skip: [u32; 2],
-        packs: u32,
-    ) -> bool {
-        self.any_hit::<wide::Y16>(o, d, tmin, tmax, skip, packs)
+    fn unoccluded_avx2(&self, q: Query, skip: [u32; 2]) -> bool {
+        self.any_hit::<wide::Y16>(q, skip)
     }
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx512f")]
-    fn intersect_avx512(
-        &self,
-        o: Vec3A,
-        d: Vec3A,
-        tmin: f32,
-        tmax: f32,
-        packs: u32,
-    ) -> Option<Hit> {
-        self.closest::<wide::Z16>(o, d, tmin, tmax, packs)
+    fn intersect_avx512(&self, q: Query) -> Option<Hit> {
+        self.closest::<wide::Z16>(q)
     }
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
-    fn intersect_avx2(&self, o: Vec3A, d: Vec3A, tmin: f32, tmax: f32, packs: u32) -> Option<Hit> {
-        self.closest::<wide::Y16>(o, d, tmin, tmax, packs)
+    fn intersect_avx2(&self, q: Query) -> Option<Hit> {
+        self.closest::<wide::Y16>(q)
     }
 
     /// The closest hit, without a branch per lane or per pack: each lane keeps the least
@@ -293,14 +277,14 @@ impl SmallScene {
     /// the hit a scan in scene order that accepts a triangle only if it shortens the ray keeps.
     /// With a lane to redo in the scalar test (an edge function exactly zero), that scan itself.
     #[inline(always)]
-    fn closest<V: Wide>(
-        &self,
-        o: Vec3A,
-        d: Vec3A,
-        tmin: f32,
-        tmax: f32,
-        packs: u32,
-    ) -> Option<Hit> {
+    fn closest<V: Wide>(&self, q: Query) -> Option<Hit> {
+        let Query {
+            o,
+            d,
+            tmin,
+            tmax,
+            packs,
+        } = q;
         let sh = shear(o, d);
         let inf = V::splat(f32::INFINITY);
         let (mut t, mut b1, mut b2, mut prim) = (inf, inf, inf, inf);
@@ -386,15 +370,14 @@ impl SmallScene {
     /// Whether the segment is free of triangles off the planes `skip`: every pack is tested
     /// before one branch on the result; a lane to redo goes to the scalar test.
     #[inline(always)]
-    fn any_hit<V: Wide>(
-        &self,
-        o: Vec3A,
-        d: Vec3A,
-        tmin: f32,
-        tmax: f32,
-        skip: [u32; 2],
-        packs: u32,
-    ) -> bool {
+    fn any_hit<V: Wide>(&self, q: Query, skip: [u32; 2]) -> bool {
+        let Query {
+            o,
+            d,
+            tmin,
+            tmax,
+            packs,
+        } = q;
         let sh = shear(o, d);
         let (mut hit, mut redo) = (false, false);
         let mut left = packs & self.all;
