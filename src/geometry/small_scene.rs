@@ -1,5 +1,5 @@
 //! Rays in a scene of a few dozen triangles without walking a tree: every triangle of the packs a
-//! ray enters is tested, sixteen per step (one AVX-512 vector, or two AVX2 ones). The triangles
+//! ray enters is tested, sixteen per step in an AVX-512 vector or eight in an AVX2 one. The triangles
 //! sit in up to sixteen packs, runs of scene order cut so that the rays a scene's paths trace
 //! enter few of their bounding boxes ([`runs`]: a Cornell box's five walls, its light and each box
 //! in it a pack of their own), and [`super::bvh::Accel`] tests a ray against the packs' boxes
@@ -18,6 +18,7 @@
 
 use super::{Hit, Prim, intersect_triangle, watertight_shear};
 use glam::Vec3A;
+use std::ops::{BitAnd, BitOr, Not};
 
 /// Triangles per step.
 const LANES: usize = 16;
@@ -85,32 +86,33 @@ pub struct Query {
     pub packs: u32,
 }
 
-/// One step's lanes: hit in `(tmin, tmax)` and to redo in the scalar test (bit per lane), each
-/// hit lane's distance (+∞ in the others) and barycentrics.
+/// One step's lanes: hit in `(tmin, tmax)` and to redo in the scalar test, each hit lane's
+/// distance (+∞ in the others) and barycentrics.
 #[derive(Clone, Copy)]
-struct Lanes<V> {
-    hit: u32,
-    redo: u32,
+struct Lanes<V: Wide> {
+    hit: V::Mask,
+    redo: V::Mask,
     t: V,
     b1: V,
     b2: V,
 }
 
 impl Pack {
-    /// The watertight test on the sixteen lanes in vectors `V`, each lane with the operations
-    /// of [`intersect_triangle`] in its order.
+    /// The watertight test on lanes `at..at + V::WIDTH` in a vector `V`, each lane with the
+    /// operations of [`intersect_triangle`] in its order.
     #[inline(always)]
-    fn test<V: Wide>(&self, sh: &Shear, tmin: f32, tmax: f32) -> Lanes<V> {
+    fn test<V: Wide>(&self, at: usize, sh: &Shear, tmin: f32, tmax: f32) -> Lanes<V> {
         let ko = [V::splat(sh.ko[0]), V::splat(sh.ko[1]), V::splat(sh.ko[2])];
         let s = [V::splat(sh.s[0]), V::splat(sh.s[1]), V::splat(sh.s[2])];
-        let p0 = vertex(&self.v[0], sh.k, ko, s);
-        let p1 = vertex(&self.v[1], sh.k, ko, s);
-        let p2 = vertex(&self.v[2], sh.k, ko, s);
+        let p0 = vertex(&self.v[0], at, sh.k, ko, s);
+        let p1 = vertex(&self.v[1], at, sh.k, ko, s);
+        let p2 = vertex(&self.v[2], at, sh.k, ko, s);
         let e0 = p1[0].mul(p2[1]).sub(p1[1].mul(p2[0]));
         let e1 = p2[0].mul(p0[1]).sub(p2[1].mul(p0[0]));
         let e2 = p0[0].mul(p1[1]).sub(p0[1].mul(p1[0]));
         let zero = V::splat(0.0);
-        let redo = (e0.eq(zero) | e1.eq(zero) | e2.eq(zero)) & self.valid;
+        let valid = V::Mask::from_bits(self.valid >> at);
+        let redo = (e0.eq(zero) | e1.eq(zero) | e2.eq(zero)) & valid;
         let neg = e0.lt(zero) | e1.lt(zero) | e2.lt(zero);
         let pos = zero.lt(e0) | zero.lt(e1) | zero.lt(e2);
         let det = e0.add(e1).add(e2);
@@ -124,7 +126,7 @@ impl Pack {
             & det.ne(zero)
             & V::splat(tmin).lt(t)
             & t.lt(V::splat(tmax))
-            & self.valid
+            & valid
             & !redo;
         Lanes {
             hit,
@@ -133,6 +135,15 @@ impl Pack {
             b1: e1.mul(inv_det),
             b2: e2.mul(inv_det),
         }
+    }
+
+    /// The steps of `V::WIDTH` lanes this pack takes (lanes are filled from the first): where
+    /// each starts.
+    #[inline(always)]
+    fn steps<V: Wide>(&self) -> impl Iterator<Item = usize> {
+        (0..LANES)
+            .step_by(V::WIDTH)
+            .take_while(|&at| self.valid >> at != 0)
     }
 
     /// The lanes of this pack on one of the planes `skip` (bit per lane).
@@ -256,7 +267,7 @@ impl SmallScene {
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
     fn unoccluded_avx2(&self, q: Query, skip: [u32; 2]) -> bool {
-        self.any_hit::<wide::Y16>(q, skip)
+        self.any_hit::<wide::Y8>(q, skip)
     }
 
     #[cfg(target_arch = "x86_64")]
@@ -268,7 +279,7 @@ impl SmallScene {
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
     fn intersect_avx2(&self, q: Query) -> Option<Hit> {
-        self.closest::<wide::Y16>(q)
+        self.closest::<wide::Y8>(q)
     }
 
     /// The closest hit, without a branch per lane or per pack: each lane keeps the least
@@ -288,26 +299,28 @@ impl SmallScene {
         let sh = shear(o, d);
         let inf = V::splat(f32::INFINITY);
         let (mut t, mut b1, mut b2, mut prim) = (inf, inf, inf, inf);
-        let (mut left, mut redo) = (packs & self.all, 0);
+        let (mut left, mut redo) = (packs & self.all, V::Mask::from_bits(0));
         while left != 0 {
             let p = &self.packs[left.trailing_zeros() as usize];
             left &= left - 1;
-            let l = p.test::<V>(&sh, tmin, tmax);
-            redo |= l.redo;
-            let closer = l.t.lt(t);
-            t = V::select(closer, l.t, t);
-            b1 = V::select(closer, l.b1, b1);
-            b2 = V::select(closer, l.b2, b2);
-            prim = V::select(closer, V::load_bits(&p.prim), prim);
+            for at in p.steps::<V>() {
+                let l = p.test::<V>(at, &sh, tmin, tmax);
+                redo = redo | l.redo;
+                let closer = l.t.lt(t);
+                t = V::select(closer, l.t, t);
+                b1 = V::select(closer, l.b1, b1);
+                b2 = V::select(closer, l.b2, b2);
+                prim = V::select(closer, V::load_bits(&p.prim, at), prim);
+            }
         }
-        if redo != 0 {
+        if redo.bits() != 0 {
             return self.scan::<V>(&sh, o, d, tmin, tmax, packs);
         }
         let least = t.reduce_min();
         if least == f32::INFINITY {
             return None;
         }
-        let (mut at_least, prims) = (t.eq(V::splat(least)), prim.store());
+        let (mut at_least, prims) = (t.eq(V::splat(least)).bits(), prim.store());
         let mut lane = at_least.trailing_zeros() as usize;
         at_least &= at_least - 1;
         while at_least != 0 {
@@ -342,25 +355,28 @@ impl SmallScene {
             if packs >> k & 1 == 0 {
                 continue;
             }
-            let l = p.test::<V>(sh, tmin, tmax);
-            let mut lanes = l.hit | l.redo;
-            while lanes != 0 {
-                let lane = lanes.trailing_zeros() as usize;
-                lanes &= lanes - 1;
-                let found = if l.hit >> lane & 1 != 0 {
-                    Some((l.t.lane(lane), l.b1.lane(lane), l.b2.lane(lane)))
-                } else {
-                    p.lane(lane, o, d, tmin, shortest)
-                };
-                if let Some((t, b1, b2)) = found
-                    && t < shortest
-                {
-                    shortest = t;
-                    best = Some(Hit {
-                        t,
-                        prim: p.prim[lane],
-                        b: [b1, b2],
-                    });
+            for at in p.steps::<V>() {
+                let l = p.test::<V>(at, sh, tmin, tmax);
+                let hit = l.hit.bits();
+                let mut lanes = hit | l.redo.bits();
+                while lanes != 0 {
+                    let i = lanes.trailing_zeros() as usize;
+                    lanes &= lanes - 1;
+                    let found = if hit >> i & 1 != 0 {
+                        Some((l.t.lane(i), l.b1.lane(i), l.b2.lane(i)))
+                    } else {
+                        p.lane(at + i, o, d, tmin, shortest)
+                    };
+                    if let Some((t, b1, b2)) = found
+                        && t < shortest
+                    {
+                        shortest = t;
+                        best = Some(Hit {
+                            t,
+                            prim: p.prim[at + i],
+                            b: [b1, b2],
+                        });
+                    }
                 }
             }
         }
@@ -384,11 +400,14 @@ impl SmallScene {
         while left != 0 {
             let p = &self.packs[left.trailing_zeros() as usize];
             left &= left - 1;
-            let l = p.test::<V>(&sh, tmin, tmax);
-            if l.hit | l.redo != 0 {
-                let kept = !p.on_planes(skip);
-                hit |= l.hit & kept != 0;
-                redo |= l.redo & kept != 0;
+            for at in p.steps::<V>() {
+                let l = p.test::<V>(at, &sh, tmin, tmax);
+                let (h, r) = (l.hit.bits(), l.redo.bits());
+                if h | r != 0 {
+                    let kept = !(p.on_planes(skip) >> at);
+                    hit |= h & kept != 0;
+                    redo |= r & kept != 0;
+                }
             }
         }
         !(hit || redo && self.redo_hits(o, d, tmin, tmax, skip, packs))
@@ -565,13 +584,19 @@ fn bounding_box(tris: &[[Vec3A; 3]]) -> [Vec3A; 2] {
     )
 }
 
-/// One vertex `v` of the lanes relative to the ray's origin, permuted by `k` and sheared.
+/// One vertex `v` of lanes `at..at + V::WIDTH` relative to the ray's origin, permuted by `k` and sheared.
 #[inline(always)]
-fn vertex<V: Wide>(v: &[[f32; LANES]; 3], k: [usize; 3], ko: [V; 3], s: [V; 3]) -> [V; 3] {
-    let z = V::load(&v[k[2]]).sub(ko[2]);
+fn vertex<V: Wide>(
+    v: &[[f32; LANES]; 3],
+    at: usize,
+    k: [usize; 3],
+    ko: [V; 3],
+    s: [V; 3],
+) -> [V; 3] {
+    let z = V::load(&v[k[2]], at).sub(ko[2]);
     [
-        V::load(&v[k[0]]).sub(ko[0]).add(s[0].mul(z)),
-        V::load(&v[k[1]]).sub(ko[1]).add(s[1].mul(z)),
+        V::load(&v[k[0]], at).sub(ko[0]).add(s[0].mul(z)),
+        V::load(&v[k[1]], at).sub(ko[1]).add(s[1].mul(z)),
         z.mul(s[2]),
     ]
 }
@@ -603,57 +628,134 @@ fn supported() -> Vec<Isa> {
     isa
 }
 
-/// Sixteen `f32` lanes: the operations the test needs, each lane rounded as the scalar operation
-/// (comparisons give a bit per lane; `lt` and `eq` are false on NaN, `ne` true, as in Rust).
+/// A lane mask of [`Wide`] vectors: a bit per lane (AVX-512's mask registers) or a vector of
+/// all-ones and all-zeros lanes (AVX2, whose blends and logic take those without a round trip
+/// through integer bits).
+trait Mask: Copy + BitAnd<Output = Self> + BitOr<Output = Self> + Not<Output = Self> {
+    /// The mask with lane `i` set where bit `i` of `bits` is.
+    fn from_bits(bits: u32) -> Self;
+    /// Bit `i` set where lane `i` is.
+    fn bits(self) -> u32;
+}
+
+/// [`Self::WIDTH`] `f32` lanes: the operations the test needs, each lane rounded as the scalar
+/// operation (comparisons give a mask; `lt` and `eq` are false on NaN, `ne` true, as in Rust).
 trait Wide: Copy {
+    type Mask: Mask;
+    /// Lanes per vector: a pack takes `LANES / WIDTH` steps.
+    const WIDTH: usize;
     fn splat(x: f32) -> Self;
-    fn load(a: &[f32; LANES]) -> Self;
-    /// The bits of `a`, lane by lane.
-    fn load_bits(a: &[u32; LANES]) -> Self;
+    /// Lanes `at..at + WIDTH` of `a`.
+    fn load(a: &[f32; LANES], at: usize) -> Self;
+    /// The bits of lanes `at..at + WIDTH` of `a`.
+    fn load_bits(a: &[u32; LANES], at: usize) -> Self;
+    /// The lanes, in the first `WIDTH` elements.
     fn store(self) -> [f32; LANES];
     fn add(self, b: Self) -> Self;
     fn sub(self, b: Self) -> Self;
     fn mul(self, b: Self) -> Self;
     fn div(self, b: Self) -> Self;
     /// `a` in the lanes of `mask`, `b` in the others.
-    fn select(mask: u32, a: Self, b: Self) -> Self;
+    fn select(mask: Self::Mask, a: Self, b: Self) -> Self;
     /// The least lane (no lane is NaN).
     fn reduce_min(self) -> f32;
     fn lane(self, lane: usize) -> f32 {
         self.store()[lane]
     }
-    fn lt(self, b: Self) -> u32;
-    fn eq(self, b: Self) -> u32;
-    fn ne(self, b: Self) -> u32;
+    fn lt(self, b: Self) -> Self::Mask;
+    fn eq(self, b: Self) -> Self::Mask;
+    fn ne(self, b: Self) -> Self::Mask;
 }
 
-/// The two implementations of [`Wide`]: one AVX-512 vector, two AVX2 ones. Their functions are
-/// inlined into the `#[target_feature]` callers above, which alone call them.
+/// The two implementations of [`Wide`]: one AVX-512 vector of sixteen lanes, or one AVX2 vector
+/// of eight (a pack in two steps, the second skipped where the pack holds eight triangles or
+/// fewer). Their functions are inlined into the `#[target_feature]` callers above, which alone
+/// call them.
 #[cfg(target_arch = "x86_64")]
 mod wide {
-    use super::{LANES, Wide};
+    use super::{LANES, Mask, Wide};
     use std::arch::x86_64::*;
+    use std::ops::{BitAnd, BitOr, Not};
 
     #[derive(Clone, Copy)]
     pub struct Z16(__m512);
 
     #[derive(Clone, Copy)]
-    pub struct Y16(__m256, __m256);
+    pub struct Y8(__m256);
+
+    /// [`Y8`]'s mask: each lane all ones or all zeros.
+    #[derive(Clone, Copy)]
+    pub struct M8(__m256);
+
+    /// AVX-512's masks are bits already.
+    impl Mask for u32 {
+        #[inline(always)]
+        fn from_bits(bits: u32) -> Self {
+            bits
+        }
+        #[inline(always)]
+        fn bits(self) -> u32 {
+            self
+        }
+    }
 
     // SAFETY (every block below): only reached from functions compiled with the extension,
-    // called after it was detected on this CPU; loads and stores are of whole 16-lane arrays.
+    // called after it was detected on this CPU; loads and stores are of whole vectors within
+    // arrays whose bounds the slices check.
+    impl BitAnd for M8 {
+        type Output = Self;
+        #[inline(always)]
+        fn bitand(self, b: Self) -> Self {
+            Self(unsafe { _mm256_and_ps(self.0, b.0) })
+        }
+    }
+
+    impl BitOr for M8 {
+        type Output = Self;
+        #[inline(always)]
+        fn bitor(self, b: Self) -> Self {
+            Self(unsafe { _mm256_or_ps(self.0, b.0) })
+        }
+    }
+
+    impl Not for M8 {
+        type Output = Self;
+        #[inline(always)]
+        fn not(self) -> Self {
+            Self(unsafe { _mm256_xor_ps(self.0, _mm256_castsi256_ps(_mm256_set1_epi32(-1))) })
+        }
+    }
+
+    impl Mask for M8 {
+        /// Lane i: bit i of `bits` spread over the lane's 32 bits.
+        #[inline(always)]
+        fn from_bits(bits: u32) -> Self {
+            unsafe {
+                let lane_bits = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
+                let m = _mm256_and_si256(_mm256_set1_epi32(bits as i32), lane_bits);
+                Self(_mm256_castsi256_ps(_mm256_cmpeq_epi32(m, lane_bits)))
+            }
+        }
+        #[inline(always)]
+        fn bits(self) -> u32 {
+            unsafe { _mm256_movemask_ps(self.0) as u32 }
+        }
+    }
+
     impl Wide for Z16 {
+        type Mask = u32;
+        const WIDTH: usize = 16;
         #[inline(always)]
         fn splat(x: f32) -> Self {
             Self(unsafe { _mm512_set1_ps(x) })
         }
         #[inline(always)]
-        fn load(a: &[f32; LANES]) -> Self {
-            Self(unsafe { _mm512_loadu_ps(a.as_ptr()) })
+        fn load(a: &[f32; LANES], at: usize) -> Self {
+            Self(unsafe { _mm512_loadu_ps(a[at..at + 16].as_ptr()) })
         }
         #[inline(always)]
-        fn load_bits(a: &[u32; LANES]) -> Self {
-            Self(unsafe { _mm512_castsi512_ps(_mm512_loadu_si512(a.as_ptr().cast())) })
+        fn load_bits(a: &[u32; LANES], at: usize) -> Self {
+            Self(unsafe { _mm512_castsi512_ps(_mm512_loadu_si512(a[at..at + 16].as_ptr().cast())) })
         }
         #[inline(always)]
         fn store(self) -> [f32; LANES] {
@@ -699,106 +801,69 @@ mod wide {
         }
     }
 
-    /// Lanes 0–7 in the first vector, 8–15 in the second.
-    impl Y16 {
-        #[inline(always)]
-        fn zip(self, b: Self, f: impl Fn(__m256, __m256) -> __m256) -> Self {
-            Self(f(self.0, b.0), f(self.1, b.1))
-        }
-        #[inline(always)]
-        fn bits(self, b: Self, f: impl Fn(__m256, __m256) -> __m256) -> u32 {
-            unsafe {
-                (_mm256_movemask_ps(f(self.0, b.0)) as u32)
-                    | (_mm256_movemask_ps(f(self.1, b.1)) as u32) << 8
-            }
-        }
-    }
-
-    impl Wide for Y16 {
+    impl Wide for Y8 {
+        type Mask = M8;
+        const WIDTH: usize = 8;
         #[inline(always)]
         fn splat(x: f32) -> Self {
-            let v = unsafe { _mm256_set1_ps(x) };
-            Self(v, v)
+            Self(unsafe { _mm256_set1_ps(x) })
         }
         #[inline(always)]
-        fn load(a: &[f32; LANES]) -> Self {
-            unsafe {
-                Self(
-                    _mm256_loadu_ps(a.as_ptr()),
-                    _mm256_loadu_ps(a.as_ptr().add(8)),
-                )
-            }
+        fn load(a: &[f32; LANES], at: usize) -> Self {
+            Self(unsafe { _mm256_loadu_ps(a[at..at + 8].as_ptr()) })
         }
         #[inline(always)]
-        fn load_bits(a: &[u32; LANES]) -> Self {
-            unsafe {
-                Self(
-                    _mm256_castsi256_ps(_mm256_loadu_si256(a.as_ptr().cast())),
-                    _mm256_castsi256_ps(_mm256_loadu_si256(a.as_ptr().add(8).cast())),
-                )
-            }
+        fn load_bits(a: &[u32; LANES], at: usize) -> Self {
+            Self(unsafe { _mm256_castsi256_ps(_mm256_loadu_si256(a[at..at + 8].as_ptr().cast())) })
         }
         #[inline(always)]
         fn store(self) -> [f32; LANES] {
             let mut a = [0.0; LANES];
-            unsafe {
-                _mm256_storeu_ps(a.as_mut_ptr(), self.0);
-                _mm256_storeu_ps(a.as_mut_ptr().add(8), self.1);
-            }
+            unsafe { _mm256_storeu_ps(a.as_mut_ptr(), self.0) };
             a
         }
         #[inline(always)]
         fn add(self, b: Self) -> Self {
-            self.zip(b, |x, y| unsafe { _mm256_add_ps(x, y) })
+            Self(unsafe { _mm256_add_ps(self.0, b.0) })
         }
         #[inline(always)]
         fn sub(self, b: Self) -> Self {
-            self.zip(b, |x, y| unsafe { _mm256_sub_ps(x, y) })
+            Self(unsafe { _mm256_sub_ps(self.0, b.0) })
         }
         #[inline(always)]
         fn mul(self, b: Self) -> Self {
-            self.zip(b, |x, y| unsafe { _mm256_mul_ps(x, y) })
+            Self(unsafe { _mm256_mul_ps(self.0, b.0) })
         }
         #[inline(always)]
         fn div(self, b: Self) -> Self {
-            self.zip(b, |x, y| unsafe { _mm256_div_ps(x, y) })
+            Self(unsafe { _mm256_div_ps(self.0, b.0) })
         }
         #[inline(always)]
-        fn select(mask: u32, a: Self, b: Self) -> Self {
-            // Lane i of the blend mask: bit i of `mask` spread over the lane's 32 bits.
-            let spread = |m: u32| unsafe {
-                let bits = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
-                let m = _mm256_and_si256(_mm256_set1_epi32(m as i32), bits);
-                _mm256_castsi256_ps(_mm256_cmpeq_epi32(m, bits))
-            };
-            let (lo, hi) = (spread(mask & 0xff), spread(mask >> 8 & 0xff));
-            unsafe {
-                Self(
-                    _mm256_blendv_ps(b.0, a.0, lo),
-                    _mm256_blendv_ps(b.1, a.1, hi),
-                )
-            }
+        fn select(mask: M8, a: Self, b: Self) -> Self {
+            Self(unsafe { _mm256_blendv_ps(b.0, a.0, mask.0) })
         }
         #[inline(always)]
         fn reduce_min(self) -> f32 {
             unsafe {
-                let m = _mm256_min_ps(self.0, self.1);
-                let m = _mm_min_ps(_mm256_castps256_ps128(m), _mm256_extractf128_ps::<1>(m));
+                let m = _mm_min_ps(
+                    _mm256_castps256_ps128(self.0),
+                    _mm256_extractf128_ps::<1>(self.0),
+                );
                 let m = _mm_min_ps(m, _mm_movehl_ps(m, m));
                 _mm_cvtss_f32(_mm_min_ss(m, _mm_shuffle_ps::<1>(m, m)))
             }
         }
         #[inline(always)]
-        fn lt(self, b: Self) -> u32 {
-            self.bits(b, |x, y| unsafe { _mm256_cmp_ps::<_CMP_LT_OQ>(x, y) })
+        fn lt(self, b: Self) -> M8 {
+            M8(unsafe { _mm256_cmp_ps::<_CMP_LT_OQ>(self.0, b.0) })
         }
         #[inline(always)]
-        fn eq(self, b: Self) -> u32 {
-            self.bits(b, |x, y| unsafe { _mm256_cmp_ps::<_CMP_EQ_OQ>(x, y) })
+        fn eq(self, b: Self) -> M8 {
+            M8(unsafe { _mm256_cmp_ps::<_CMP_EQ_OQ>(self.0, b.0) })
         }
         #[inline(always)]
-        fn ne(self, b: Self) -> u32 {
-            self.bits(b, |x, y| unsafe { _mm256_cmp_ps::<_CMP_NEQ_UQ>(x, y) })
+        fn ne(self, b: Self) -> M8 {
+            M8(unsafe { _mm256_cmp_ps::<_CMP_NEQ_UQ>(self.0, b.0) })
         }
     }
 }
