@@ -53,6 +53,7 @@ enum Isa {
 /// Every triangle of a small scene, in at most [`MAX_PACKS`] packs of up to sixteen, in scene
 /// order: consecutive runs cut so that the scene's rays enter few of their boxes ([`runs`]), and
 /// a ray scans only the packs whose boxes it enters.
+#[derive(Clone)]
 pub struct SmallScene {
     packs: Vec<Pack>,
     /// Each pack's bounding box (low and high corners).
@@ -178,18 +179,7 @@ impl SmallScene {
     /// The scan over `prims` (plane keys by `plane`, for shadow rays) if they are at most
     /// [`MAX_TRIANGLES`] triangles and the CPU has AVX-512 or AVX2 (the widest is used).
     pub fn new(prims: &[Prim], plane: impl Fn(usize) -> u32) -> Option<Self> {
-        Self::with_isa(prims, &plane, *supported().first()?)
-    }
-
-    /// The scan over `prims` once for each SIMD extension this CPU has (tests compare them).
-    pub fn each_extension(prims: &[Prim], plane: impl Fn(usize) -> u32) -> Vec<Self> {
-        supported()
-            .into_iter()
-            .filter_map(|isa| Self::with_isa(prims, &plane, isa))
-            .collect()
-    }
-
-    fn with_isa(prims: &[Prim], plane: &impl Fn(usize) -> u32, isa: Isa) -> Option<Self> {
+        let isa = *supported().first()?;
         if prims.len() > MAX_TRIANGLES {
             return None;
         }
@@ -227,6 +217,21 @@ impl SmallScene {
             bounds,
             isa,
         })
+    }
+
+    /// The scan over `prims` once for each SIMD extension this CPU has (tests compare them):
+    /// the same packs, cut once.
+    pub fn each_extension(prims: &[Prim], plane: impl Fn(usize) -> u32) -> Vec<Self> {
+        let Some(scan) = Self::new(prims, plane) else {
+            return Vec::new();
+        };
+        supported()
+            .into_iter()
+            .map(|isa| Self {
+                isa,
+                ..scan.clone()
+            })
+            .collect()
     }
 
     /// Each pack's bounding box (low and high corners), in pack order: bit `k` of the `packs`
