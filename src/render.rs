@@ -27,21 +27,22 @@ pub const BLOCK: u64 = 256;
 /// pass of subpaths at once.
 const PIXEL_GROUP: usize = 256;
 
-/// Fewest pixels in a group (but for the last): each group sweeps the pass's subpaths once.
-const MIN_GROUP: usize = 16;
+/// The film a group of pixels may write to at most (bytes): the group's buffers stay in a core's
+/// L2 cache while it connects them to a tile of subpaths (an exhaustive capture's pixel holds one
+/// transient per laser point: 77 KB for 8×8 points and 300 bins, so groups of four).
+const GROUP_BYTES: usize = 320 << 10;
 
-/// Consecutive groups covering `n` pixels, largest first (guided self-scheduling, Polychronopoulos
-/// and Kuck 1987): each takes 1/(2·threads) of the pixels left, within [`MIN_GROUP`] and
-/// [`PIXEL_GROUP`], so that the last groups handed out are small and no thread waits long for
-/// another at the end of a pass (with equal groups of 256, one thread ran alone for the last
-/// group, 6 % of a 64×64 render).
-fn guided_groups(n: usize, threads: usize) -> Vec<Range<usize>> {
+/// Consecutive groups covering `n` pixels of `len` floats each, largest first (guided
+/// self-scheduling, Polychronopoulos and Kuck 1987): each takes 1/(2·threads) of the pixels left,
+/// at least one and at most [`PIXEL_GROUP`] or [`GROUP_BYTES`] of film, so that the last groups
+/// handed out are small and no thread waits long for another at the end of a pass (with equal
+/// groups of 256, one thread ran alone for the last group, 6 % of a 64×64 render).
+fn guided_groups(n: usize, len: usize, threads: usize) -> Vec<Range<usize>> {
+    let most = (GROUP_BYTES / (4 * len.max(1))).clamp(1, PIXEL_GROUP);
     let mut groups = Vec::new();
     let mut at = 0;
     while at < n {
-        let size = ((n - at) / (2 * threads.max(1)))
-            .clamp(MIN_GROUP, PIXEL_GROUP)
-            .min(n - at);
+        let size = ((n - at) / (2 * threads.max(1))).clamp(1, most).min(n - at);
         groups.push(at..at + size);
         at += size;
     }
@@ -925,7 +926,7 @@ impl<'a, T: Tracer> Sampling<'a, T> {
             let mut groups = Vec::new();
             let (mut bufs_left, mut sums_left, mut sqs_left) =
                 (&mut *out.transient, &mut *out.steady, &mut squares[..]);
-            for r in guided_groups(pixels.len(), threads) {
+            for r in guided_groups(pixels.len(), len, threads) {
                 let (bufs, b) = std::mem::take(&mut bufs_left).split_at_mut(r.len() * len);
                 let (sums, s) = std::mem::take(&mut sums_left).split_at_mut(r.len());
                 let (sqs, q) = std::mem::take(&mut sqs_left).split_at_mut(r.len());
