@@ -15,8 +15,8 @@ use crate::sampling::Sampler;
 use crate::scene::{Scene, Setup};
 use rayon::prelude::*;
 use std::ops::Range;
-use std::sync::Mutex;
 use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
+use std::sync::{Mutex, PoisonError};
 
 /// Samples per random stream (and per cancellation check).
 pub const BLOCK: u64 = 256;
@@ -941,8 +941,10 @@ impl<'a, T: Tracer> Sampling<'a, T> {
                     let mut values = self.plan.variance.then(|| SampleValues::new(len));
                     let (mut fixed, mut rngs, mut own) = (Vec::new(), Vec::new(), Vec::new());
                     while let Some(g) = groups.get(next.fetch_add(1, Ordering::Relaxed)) {
+                        // Each index is claimed once, so the group is there to take (a lock
+                        // poisoned by another thread's panic still holds it: never skip pixels).
                         let Some((group, bufs, sums, sqs)) =
-                            g.lock().ok().and_then(|mut g| g.take())
+                            g.lock().unwrap_or_else(PoisonError::into_inner).take()
                         else {
                             continue;
                         };
