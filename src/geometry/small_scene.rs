@@ -114,8 +114,10 @@ impl Pack {
         let zero = V::splat(0.0);
         let valid = V::Mask::from_bits(self.valid >> at);
         let redo = (e0.eq(zero) | e1.eq(zero) | e2.eq(zero)) & valid;
-        let neg = e0.lt(zero) | e1.lt(zero) | e2.lt(zero);
-        let pos = zero.lt(e0) | zero.lt(e1) | zero.lt(e2);
+        // Where no edge function is zero (the lanes not redone), some are negative and some
+        // positive exactly where their sign bits differ; and where they all share a sign their
+        // sum is not zero, so the scalar test's `det == 0` rejects nothing more here.
+        let mixed = V::signs_differ(e0, e1, e2);
         let det = e0.add(e1).add(e2);
         let inv_det = V::splat(1.0).div(det);
         let t = e0
@@ -123,12 +125,7 @@ impl Pack {
             .add(e1.mul(p1[2]))
             .add(e2.mul(p2[2]))
             .mul(inv_det);
-        let hit = !(neg & pos)
-            & det.ne(zero)
-            & V::splat(tmin).lt(t)
-            & t.lt(V::splat(tmax))
-            & valid
-            & !redo;
+        let hit = !mixed & V::splat(tmin).lt(t) & t.lt(V::splat(tmax)) & valid & !redo;
         Lanes {
             hit,
             redo,
@@ -644,7 +641,7 @@ trait Mask: Copy + BitAnd<Output = Self> + BitOr<Output = Self> + Not<Output = S
 }
 
 /// [`Self::WIDTH`] `f32` lanes: the operations the test needs, each lane rounded as the scalar
-/// operation (comparisons give a mask; `lt` and `eq` are false on NaN, `ne` true, as in Rust).
+/// operation (comparisons give a mask; `lt` and `eq` are false on NaN, as in Rust).
 trait Wide: Copy {
     type Mask: Mask;
     /// Lanes per vector: a pack takes `LANES / WIDTH` steps.
@@ -669,7 +666,8 @@ trait Wide: Copy {
     }
     fn lt(self, b: Self) -> Self::Mask;
     fn eq(self, b: Self) -> Self::Mask;
-    fn ne(self, b: Self) -> Self::Mask;
+    /// The lanes where the sign bits of `a`, `b` and `c` are not all equal.
+    fn signs_differ(a: Self, b: Self, c: Self) -> Self::Mask;
 }
 
 /// The two implementations of [`Wide`]: one AVX-512 vector of sixteen lanes, or one AVX2 vector
@@ -688,7 +686,8 @@ mod wide {
     #[derive(Clone, Copy)]
     pub struct Y8(__m256);
 
-    /// [`Y8`]'s mask: each lane all ones or all zeros.
+    /// [`Y8`]'s mask: each lane's sign bit, which blends and `movemask` read (comparisons set
+    /// the whole lane).
     #[derive(Clone, Copy)]
     pub struct M8(__m256);
 
@@ -801,8 +800,16 @@ mod wide {
             unsafe { _mm512_cmp_ps_mask::<_CMP_EQ_OQ>(self.0, b.0) as u32 }
         }
         #[inline(always)]
-        fn ne(self, b: Self) -> u32 {
-            unsafe { _mm512_cmp_ps_mask::<_CMP_NEQ_UQ>(self.0, b.0) as u32 }
+        fn signs_differ(a: Self, b: Self, c: Self) -> u32 {
+            unsafe {
+                let (a, b, c) = (
+                    _mm512_castps_si512(a.0),
+                    _mm512_castps_si512(b.0),
+                    _mm512_castps_si512(c.0),
+                );
+                let x = _mm512_or_si512(_mm512_xor_si512(a, b), _mm512_xor_si512(a, c));
+                _mm512_cmplt_epi32_mask(x, _mm512_setzero_si512()) as u32
+            }
         }
     }
 
@@ -866,9 +873,16 @@ mod wide {
         fn eq(self, b: Self) -> M8 {
             M8(unsafe { _mm256_cmp_ps::<_CMP_EQ_OQ>(self.0, b.0) })
         }
+        /// Only each lane's sign bit is set right: the bit that blends and `movemask` read, and
+        /// that the masks' bitwise logic combines lane by lane.
         #[inline(always)]
-        fn ne(self, b: Self) -> M8 {
-            M8(unsafe { _mm256_cmp_ps::<_CMP_NEQ_UQ>(self.0, b.0) })
+        fn signs_differ(a: Self, b: Self, c: Self) -> M8 {
+            unsafe {
+                M8(_mm256_or_ps(
+                    _mm256_xor_ps(a.0, b.0),
+                    _mm256_xor_ps(a.0, c.0),
+                ))
+            }
         }
     }
 }
