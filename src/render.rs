@@ -340,6 +340,14 @@ impl Plan {
         ADAPTIVE_Z * (s2 / nf).sqrt() <= e * mean
     }
 
+    /// (pixel, chunk) tasks per rayon task where each traces its own paths: at most a block of
+    /// samples' worth. Rayon's own split leaves up to a quarter of the film in one task, and the
+    /// other threads idled while it finished (a 1024-pixel line-of-sight render at 2 threads ran
+    /// on one thread 4.3 % of its time, after this 0.2 %).
+    fn tasks_per_job(&self) -> usize {
+        BLOCK.div_ceil(self.spp.min(self.per_chunk)) as usize
+    }
+
     /// Samples [first, end) of chunk `k`.
     fn chunk_samples(&self, k: u64) -> (u64, u64) {
         let first = (k * self.per_chunk).min(self.spp);
@@ -465,14 +473,10 @@ fn render_by(
                     .zip(sqs.par_iter_mut())
                     .zip(sums.par_iter_mut())
                     .enumerate()
-                    // Tasks of at most a block of samples' worth of pixels where they are traced
-                    // here: rayon's own split leaves up to a quarter of the film in one task, and
-                    // the other threads idled while it finished (a 1024-pixel line-of-sight render
-                    // at 2 threads ran on one thread 4.3 % of its time, after this 0.2 %).
                     .with_max_len(if plan.shared {
                         usize::MAX
                     } else {
-                        BLOCK.div_ceil(plan.spp) as usize
+                        plan.tasks_per_job()
                     })
                     .try_for_each(|(pixel, ((((buf, st), n), sq), sum))| {
                         if !plan.shared {
@@ -1101,7 +1105,7 @@ impl<'a, T: Tracer> Sampling<'a, T> {
             .zip(part.steady.par_chunks_mut(3))
             .zip(squares.par_iter_mut())
             .enumerate()
-            .with_max_len(1)
+            .with_max_len(self.plan.tasks_per_job())
             .try_for_each(|(task, ((buf, st), sq))| {
                 let pixel = first_pixel + task / k as usize;
                 let (first, end) = self.plan.chunk_samples(first_chunk + task as u64 % k);
