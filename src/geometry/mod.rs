@@ -98,6 +98,8 @@ pub(crate) fn watertight_shear(d: Vec3A) -> ([usize; 3], [f32; 3]) {
     };
     let kx = (kz + 1) % 3;
     let ky = (kx + 1) % 3;
+    // Read from an array, not through `Vec3A`'s `Index` (a branch per component).
+    let d = d.to_array();
     ([kx, ky, kz], [-d[kx] / d[kz], -d[ky] / d[kz], 1.0 / d[kz]])
 }
 

@@ -144,14 +144,20 @@ impl Pack {
             .take_while(|&at| self.valid >> at != 0)
     }
 
-    /// The lanes of this pack on one of the planes `skip` (bit per lane).
+    /// Those of the lanes `lanes` (bit per lane) of this pack that lie on one of the planes `skip`
+    /// (only the lanes asked for are read: a step's few hit lanes).
     #[inline(always)]
-    fn on_planes(&self, skip: [u32; 2]) -> u32 {
-        (0..LANES).fold(0, |m, lane| {
+    fn on_planes(&self, lanes: u32, skip: [u32; 2]) -> u32 {
+        let (mut on, mut left) = (0, lanes);
+        while left != 0 {
+            let lane = left.trailing_zeros() as usize;
+            left &= left - 1;
             let key = self.plane[lane];
-            let on = key != super::bvh::NO_PLANE && (key == skip[0] || key == skip[1]);
-            m | (on as u32) << lane
-        })
+            if key != super::bvh::NO_PLANE && (key == skip[0] || key == skip[1]) {
+                on |= 1 << lane;
+            }
+        }
+        on
     }
 
     /// The scalar watertight test on lane `lane` (rare: an edge function was exactly zero).
@@ -406,7 +412,7 @@ impl SmallScene {
                 let l = p.test::<V>(at, &sh, tmin, tmax);
                 let (h, r) = (l.hit.bits(), l.redo.bits());
                 if h | r != 0 {
-                    let kept = !(p.on_planes(skip) >> at);
+                    let kept = !(p.on_planes((h | r) << at, skip) >> at);
                     hit |= h & kept != 0;
                     redo |= r & kept != 0;
                 }
@@ -432,7 +438,7 @@ impl SmallScene {
             packs >> k & 1 != 0
                 && (0..LANES).any(|lane| {
                     p.valid >> lane & 1 != 0
-                        && p.on_planes(skip) >> lane & 1 == 0
+                        && p.on_planes(1 << lane, skip) == 0
                         && p.lane(lane, o, d, tmin, tmax).is_some()
                 })
         })
@@ -609,7 +615,7 @@ fn shear(o: Vec3A, d: Vec3A) -> Shear {
     let (k, s) = watertight_shear(d);
     Shear {
         k,
-        ko: k.map(|a| o[a]),
+        ko: k.map(|a| o.to_array()[a]),
         s,
     }
 }

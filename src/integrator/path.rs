@@ -61,6 +61,8 @@ pub struct PathTracer<'a> {
     height: usize,
     /// Each shape's BSDF.
     bsdfs: Vec<Bsdf<Spectrum>>,
+    /// Per shape: whether every component of its BSDF is a delta, computed once.
+    delta: Vec<bool>,
     emitters: Vec<Emitter>,
     /// Emitter index of each shape, if it emits.
     shape_emitter: Vec<Option<usize>>,
@@ -97,13 +99,15 @@ impl<'a> PathTracer<'a> {
                 },
             });
         }
+        let bsdfs = scene.shape_bsdfs(mono);
         Ok(Self {
             scene,
             settings: &los.settings,
             camera: &los.camera,
             width: scene.meter.film.width,
             height: scene.meter.film.height,
-            bsdfs: scene.shape_bsdfs(mono),
+            delta: bsdfs.iter().map(Bsdf::is_delta).collect(),
+            bsdfs,
             emitters,
             shape_emitter,
         })
@@ -238,7 +242,7 @@ impl Tracer for PathTracer<'_> {
             }
             let bsdf = &self.bsdfs[it.shape as usize];
             // ---- Emitter sampling (not at a delta vertex: nothing to connect to)
-            if !bsdf.is_delta() {
+            if !self.delta[it.shape as usize] {
                 self.sample_light(&Vertex::new(it, wi, beta, opl, eta), bsdf, rng, out);
             }
             // ---- BSDF sampling
