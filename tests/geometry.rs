@@ -6,7 +6,7 @@ use glam::Vec3A;
 use nlos_rs::geometry::{
     Prim,
     bvh::{Accel, NO_PLANE, intersect_brute},
-    small_scene::{ALL_PACKS, MAX_TRIANGLES, Query, SmallScene},
+    small_scene::{ALL_PACKS, MAX_TRIANGLES, Packs, Query, SmallScene},
 };
 use nlos_rs::sampling::{Sampler, square_to_uniform_sphere};
 
@@ -17,7 +17,7 @@ fn every_pack(o: Vec3A, d: Vec3A, tmin: f32, tmax: f32) -> Query {
         d,
         tmin,
         tmax,
-        packs: ALL_PACKS,
+        packs: Packs::Only(ALL_PACKS),
     }
 }
 
@@ -500,9 +500,33 @@ fn small_scene_scan_is_brute_force_bit_for_bit() {
             let bits = |h: Option<nlos_rs::geometry::Hit>| {
                 h.map(|h| (h.t.to_bits(), h.prim, h.b.map(f32::to_bits)))
             };
+            // Every pack, the packs whose boxes the ray enters (away from axis planes, as the
+            // accelerator asks), and for a finite segment those whose boxes overlap its own.
+            let (a, b) = (o + 1e-4 * d, o + tmax * d);
+            let segment = [a.min(b) - 1e-5, a.max(b) + 1e-5];
+            let culled = |packs: Packs| Query {
+                packs,
+                ..every_pack(o, d, 1e-4, tmax)
+            };
             for scan in &scans {
                 let got = scan.intersect(every_pack(o, d, 1e-4, tmax));
                 assert_eq!(bits(got), bits(want), "{o:?} + t {d:?} up to {tmax}");
+                if d.abs().min_element() >= 1e-6 {
+                    let got = scan.intersect(culled(Packs::Entered));
+                    assert_eq!(
+                        bits(got),
+                        bits(want),
+                        "entered: {o:?} + t {d:?} up to {tmax}"
+                    );
+                }
+                if tmax.is_finite() {
+                    let got = scan.intersect(culled(Packs::Only(scan.overlapping(segment))));
+                    assert_eq!(
+                        bits(got),
+                        bits(want),
+                        "overlap: {o:?} + t {d:?} up to {tmax}"
+                    );
+                }
             }
             // The scene's accelerator is the scan where there is one. The tree finds the same
             // distance to within rounding: at a vertex shared by several triangles their
@@ -535,12 +559,23 @@ fn small_scene_scan_is_brute_force_bit_for_bit() {
                 .enumerate()
                 .filter(|(j, _)| !skip.contains(&(*j as u32)))
                 .all(|(_, p)| p.intersect(o, d, 1e-4, t_end).is_none());
+            let (a, b) = (o + 1e-4 * d, o + t_end * d);
+            let segment = [a.min(b) - 1e-5, a.max(b) + 1e-5];
             for scan in &scans {
-                assert_eq!(
-                    scan.unoccluded(every_pack(o, d, 1e-4, t_end), skip),
-                    free,
-                    "{o:?} + t {d:?}"
-                );
+                let q = every_pack(o, d, 1e-4, t_end);
+                assert_eq!(scan.unoccluded(q, skip), free, "{o:?} + t {d:?}");
+                if d.abs().min_element() >= 1e-6 {
+                    let q = Query {
+                        packs: Packs::Entered,
+                        ..q
+                    };
+                    assert_eq!(scan.unoccluded(q, skip), free, "entered: {o:?} + t {d:?}");
+                }
+                let q = Query {
+                    packs: Packs::Only(scan.overlapping(segment)),
+                    ..q
+                };
+                assert_eq!(scan.unoccluded(q, skip), free, "overlap: {o:?} + t {d:?}");
             }
             assert_eq!(accel.unoccluded(o, d, 1e-4, t_end, skip), free);
             assert_eq!(tree.unoccluded(o, d, 1e-4, t_end, skip), free);

@@ -20,7 +20,7 @@
 //!   ill-conditioned: they visit every node whose box overlaps the box of their segment (clipped
 //!   to the scene), which is conservative and few nodes for a ray along an axis.
 
-use super::small_scene::{Query, SmallScene};
+use super::small_scene::{Packs, Query, SmallScene};
 use super::{Hit, Prim, intersect_triangle, watertight_shear};
 use glam::{BVec4A, Vec3A, Vec4};
 use obvhs::{
@@ -59,7 +59,8 @@ const EMPTY: u32 = u32::MAX;
 /// tree makes such leaves where the surface-area heuristic prefers them.
 const LEAF_PRIMS: u32 = 4;
 /// 1 + 2γ₃ (pbrt-v4): the factor that makes the slab test conservative under rounding.
-const SLAB_PAD: f32 = 1.0 + 2.0 * (3.0 * f32::EPSILON * 0.5) / (1.0 - 3.0 * f32::EPSILON * 0.5);
+pub(super) const SLAB_PAD: f32 =
+    1.0 + 2.0 * (3.0 * f32::EPSILON * 0.5) / (1.0 - 3.0 * f32::EPSILON * 0.5);
 
 /// A node: its four children's boxes, one child per lane: `b[0][axis]` the low and
 /// `b[1][axis]` the high bounds.
@@ -110,10 +111,9 @@ pub struct Accel {
     len: usize,
     /// Bounds of every primitive (where an unbounded ray's segment ends).
     bounds: Aabb,
-    /// A scene of a few dozen triangles is scanned instead (on a CPU with AVX2), pack by pack,
-    /// with the packs' boxes as the lanes of up to four nodes: a ray scans the packs whose boxes
-    /// it enters.
-    small: Option<(SmallScene, Vec<Node>)>,
+    /// A scene of a few dozen triangles is scanned instead (on a CPU with AVX2), pack by pack: a
+    /// ray scans the packs whose boxes it enters.
+    small: Option<SmallScene>,
 }
 
 /// The plane key of a primitive on no shared plane.
@@ -181,7 +181,10 @@ impl Shear4 {
 impl Ray4 {
     #[inline]
     fn new(accel: &Accel, o: Vec3A, d: Vec3A, tmin: f32, tmax: f32) -> Self {
-        let segment = near_axis_plane(d).then(|| accel.segment_box(o, d, tmin, tmax));
+        let segment = near_axis_plane(d).then(|| {
+            let splat = |v: Vec3A| v.to_array().map(Vec4::splat);
+            accel.segment_box(o, d, tmin, tmax).map(splat)
+        });
         Self {
             o,
             d,
@@ -384,27 +387,18 @@ impl Accel {
     /// and for a small scene the scan that answers its rays instead ([`super::small_scene`]).
     pub fn build(prims: &[Prim], prim_shape: &[u32], shapes: usize) -> Self {
         let mut accel = Self::build_tree(prims, prim_shape, shapes);
-        if let Some(scan) = SmallScene::new(prims, |i| accel.plane_of(prim_shape[i])) {
-            let mut boxes = vec![EMPTY_NODE; scan.bounds().len().div_ceil(4)];
-            for (k, [lo, hi]) in scan.bounds().iter().enumerate() {
-                for a in 0..3 {
-                    boxes[k / 4].b[0][a][k % 4] = lo[a];
-                    boxes[k / 4].b[1][a][k % 4] = hi[a];
-                }
-            }
-            accel.small = Some((scan, boxes));
-        }
+        accel.small = SmallScene::new(prims, |i| accel.plane_of(prim_shape[i]));
         accel
     }
 
-    /// The small scene's packs whose boxes (`boxes`, four per node) the ray enters before `tmax`
-    /// (bit per pack).
+    /// The packs a small scene's ray scans: those whose boxes it enters, or near an axis plane
+    /// those whose boxes overlap its segment's (as the traversal chooses).
     #[inline]
-    fn packs_entered(ray: &Ray4, boxes: &[Node], tmax: f32) -> u32 {
-        boxes
-            .iter()
-            .enumerate()
-            .fold(0, |m, (i, node)| m | ray.enter(node, tmax).0 << (4 * i))
+    fn packs_to_scan(&self, scan: &SmallScene, o: Vec3A, d: Vec3A, tmin: f32, tmax: f32) -> Packs {
+        match near_axis_plane(d) {
+            true => Packs::Only(scan.overlapping(self.segment_box(o, d, tmin, tmax))),
+            false => Packs::Entered,
+        }
     }
 
     /// The tree alone, even for a small scene (what a CPU without AVX2 uses; tests compare both).
@@ -457,22 +451,25 @@ impl Accel {
     }
 
     /// Closest hit of the ray `o + t d`, `t ∈ (tmin, tmax)`; `d` must be unit length.
+    #[inline]
     pub fn intersect(&self, o: Vec3A, d: Vec3A, tmin: f32, tmax: f32) -> Option<Hit> {
+        match &self.small {
+            Some(scan) => scan.intersect(Query {
+                o,
+                d,
+                tmin,
+                tmax,
+                packs: self.packs_to_scan(scan, o, d, tmin, tmax),
+            }),
+            None => self.intersect_tree(o, d, tmin, tmax),
+        }
+    }
+
+    /// [`Self::intersect`] through the tree (out of line: the scan's callers stay small).
+    #[inline(never)]
+    fn intersect_tree(&self, o: Vec3A, d: Vec3A, tmin: f32, tmax: f32) -> Option<Hit> {
         if self.nodes.is_empty() {
             return None;
-        }
-        if let Some((scan, boxes)) = &self.small {
-            let packs = Self::packs_entered(&Ray4::new(self, o, d, tmin, tmax), boxes, tmax);
-            return match packs {
-                0 => None,
-                _ => scan.intersect(Query {
-                    o,
-                    d,
-                    tmin,
-                    tmax,
-                    packs,
-                }),
-            };
         }
         let ray = Ray4::new(self, o, d, tmin, tmax);
         let mut best: Option<Hit> = None;
@@ -527,6 +524,7 @@ impl Accel {
     /// segment meets a plane at most once, so it meets no primitive of either plane, and those
     /// are not tested (a shadow ray from a flat relay wall to a flat hidden shape tests nothing of
     /// either).
+    #[inline(always)]
     pub fn unoccluded(&self, o: Vec3A, d: Vec3A, tmin: f32, tmax: f32, skip: [u32; 2]) -> bool {
         // Nothing but the two planes (a flat hidden shape behind a flat relay wall): nothing to test.
         let on_plane = |k: u32| match k {
@@ -542,17 +540,27 @@ impl Accel {
         if self.len == skipped {
             return true;
         }
-        if let Some((scan, boxes)) = &self.small {
-            let packs = Self::packs_entered(&Ray4::new(self, o, d, tmin, tmax), boxes, tmax);
-            let q = Query {
-                o,
-                d,
-                tmin,
-                tmax,
-                packs,
-            };
-            return packs == 0 || scan.unoccluded(q, skip);
+        match &self.small {
+            Some(scan) => {
+                let packs = self.packs_to_scan(scan, o, d, tmin, tmax);
+                scan.unoccluded(
+                    Query {
+                        o,
+                        d,
+                        tmin,
+                        tmax,
+                        packs,
+                    },
+                    skip,
+                )
+            }
+            None => self.unoccluded_tree(o, d, tmin, tmax, skip),
         }
+    }
+
+    /// [`Self::unoccluded`] through the tree (out of line, as [`Self::intersect_tree`]).
+    #[inline(never)]
+    fn unoccluded_tree(&self, o: Vec3A, d: Vec3A, tmin: f32, tmax: f32, skip: [u32; 2]) -> bool {
         let ray = Ray4::new(self, o, d, tmin, tmax);
         let mut tmax = tmax;
         let mut miss = true;
@@ -650,7 +658,7 @@ impl Accel {
     /// The bounding box of the segment `o + t d`, `t ∈ (tmin, tmax)`, inside the scene's bounds,
     /// padded by rounding: it overlaps the box of every primitive the segment meets.
     #[cold]
-    fn segment_box(&self, o: Vec3A, d: Vec3A, tmin: f32, tmax: f32) -> [[Vec4; 3]; 2] {
+    fn segment_box(&self, o: Vec3A, d: Vec3A, tmin: f32, tmax: f32) -> [Vec3A; 2] {
         // Where the ray leaves the scene's bounds, along the axes it moves on.
         let exit = (0..3)
             .filter(|&a| d[a] != 0.0)
@@ -666,8 +674,7 @@ impl Accel {
             .max(tmin);
         let (a, b) = (o + tmin * d, o + exit * d);
         let pad = 1e-5 * (1.0 + a.abs().max(b.abs()).max_element());
-        let splat = |v: Vec3A| v.to_array().map(Vec4::splat);
-        [splat(a.min(b) - pad), splat(a.max(b) + pad)]
+        [a.min(b) - pad, a.max(b) + pad]
     }
 }
 

@@ -2,10 +2,10 @@
 //! ray enters is tested, sixteen per step in an AVX-512 vector or eight in an AVX2 one. The triangles
 //! sit in up to sixteen packs, runs of scene order cut so that the rays a scene's paths trace
 //! enter few of their bounding boxes ([`runs`]: a Cornell box's five walls, its light and each box
-//! in it a pack of their own), and [`super::bvh::Accel`] tests a ray against the packs' boxes
-//! first, four per node of its tree, then scans the packs it enters — closest hits and shadow
-//! rays alike, in open scenes and closed ones. Micro-benchmark figures are in
-//! docs/architecture.md ("The BVH").
+//! in it a pack of their own). A ray is first tested against the packs' boxes, in the same
+//! vectors (the slab test of [`super::bvh::Accel`]'s nodes, lane for lane), then the packs it
+//! enters are scanned — closest hits and shadow rays alike, in open scenes and closed ones.
+//! Micro-benchmark figures are in docs/architecture.md ("The BVH").
 //!
 //! Hits are those of the scalar watertight test ([`intersect_triangle`]) bit for bit: each lane
 //! runs its operations in its order (no fused multiply-add), and a lane with an edge function of
@@ -16,6 +16,7 @@
 //! The scan is compiled for AVX-512 and for AVX2 and picked at run time; a CPU with neither (or
 //! another architecture) uses the BVH.
 
+use super::bvh::SLAB_PAD;
 use super::{Hit, Prim, intersect_triangle, watertight_shear};
 use glam::Vec3A;
 use std::ops::{BitAnd, BitOr, Not};
@@ -24,8 +25,8 @@ use std::ops::{BitAnd, BitOr, Not};
 const LANES: usize = 16;
 /// Most triangles a scene may have to be scanned instead of traversed (four full packs).
 pub const MAX_TRIANGLES: usize = 64;
-/// Most packs of a small scene: their boxes are the lanes of four of the tree's nodes.
-const MAX_PACKS: usize = 16;
+/// Most packs of a small scene: their boxes are tested as the lanes of one step's vectors.
+const MAX_PACKS: usize = LANES;
 
 /// Sixteen triangles, one per lane.
 #[derive(Clone, Copy)]
@@ -58,6 +59,9 @@ pub struct SmallScene {
     packs: Vec<Pack>,
     /// Each pack's bounding box (low and high corners).
     bounds: Vec<[Vec3A; 2]>,
+    /// The same boxes by lane, `boxes[corner][axis][pack]`, for the slab test; lanes without a
+    /// pack hold an empty box (low +∞, high −∞), which no ray enters.
+    boxes: [[[f32; LANES]; 3]; 2],
     /// A bit for each pack.
     all: u32,
     isa: Isa,
@@ -71,8 +75,19 @@ struct Shear {
     s: [f32; 3],
 }
 
+/// Which packs a [`Query`] scans.
+#[derive(Clone, Copy, Debug)]
+pub enum Packs {
+    /// Those whose boxes the ray enters before `tmax`: the slab test, which a ray within 1e-6 of
+    /// an axis plane must not take (as [`super::bvh::Accel`]'s traversal).
+    Entered,
+    /// These (bit per pack: [`ALL_PACKS`] for every one, or [`SmallScene::overlapping`] a
+    /// segment's box for a ray too close to an axis plane for the slab test).
+    Only(u32),
+}
+
 /// A ray query of the scan: the ray `o + t d` (`d` of unit length), `t ∈ (tmin, tmax)`, over the
-/// packs `packs` (bit per pack: those whose boxes the ray enters, or [`ALL_PACKS`]).
+/// packs `packs`.
 #[derive(Clone, Copy, Debug)]
 pub struct Query {
     /// Origin.
@@ -84,7 +99,7 @@ pub struct Query {
     /// Where it ends.
     pub tmax: f32,
     /// The packs to scan.
-    pub packs: u32,
+    pub packs: Packs,
 }
 
 /// One step's lanes: hit in `(tmin, tmax)` and to redo in the scalar test, each hit lane's
@@ -194,6 +209,7 @@ impl SmallScene {
             })
             .collect::<Option<Vec<_>>>()?;
         let (mut packs, mut bounds) = (Vec::new(), Vec::new());
+        let mut boxes = [[[f32::INFINITY; LANES]; 3], [[f32::NEG_INFINITY; LANES]; 3]];
         for run in runs(&tris) {
             let mut pack = Pack {
                 v: [[[0.0; LANES]; 3]; 3],
@@ -211,13 +227,19 @@ impl SmallScene {
                 pack.plane[lane] = plane(i);
                 pack.valid |= 1 << lane;
             }
-            bounds.push(bounding_box(&tris[run]));
+            let bb = bounding_box(&tris[run]);
+            for a in 0..3 {
+                boxes[0][a][packs.len()] = bb[0][a];
+                boxes[1][a][packs.len()] = bb[1][a];
+            }
+            bounds.push(bb);
             packs.push(pack);
         }
         Some(Self {
             all: (1 << packs.len()) - 1,
             packs,
             bounds,
+            boxes,
             isa,
         })
     }
@@ -237,10 +259,19 @@ impl SmallScene {
             .collect()
     }
 
-    /// Each pack's bounding box (low and high corners), in pack order: bit `k` of the `packs`
-    /// masks [`Self::intersect`] and [`Self::unoccluded`] take.
+    /// Each pack's bounding box (low and high corners), in pack order: bit `k` of a
+    /// [`Packs::Only`] mask.
     pub fn bounds(&self) -> &[[Vec3A; 2]] {
         &self.bounds
+    }
+
+    /// The packs whose boxes overlap the box `[low, high]` (bit per pack; the traversal's test
+    /// of a node against a segment's box, for rays near an axis plane).
+    #[cold]
+    pub fn overlapping(&self, [low, high]: [Vec3A; 2]) -> u32 {
+        self.bounds.iter().enumerate().fold(0, |m, (k, [lo, hi])| {
+            m | ((lo.cmple(high) & hi.cmpge(low)).all() as u32) << k
+        })
     }
 
     /// The closest hit of the query's ray among its packs.
@@ -266,16 +297,34 @@ impl SmallScene {
         }
     }
 
+    // A shadow ray's box test is in the call and its scan out of line: most shadow rays of an
+    // NLOS scene enter no pack and return from a short function.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx512f")]
     fn unoccluded_avx512(&self, q: Query, skip: [u32; 2]) -> bool {
-        self.any_hit::<wide::Z16>(q, skip)
+        let packs = self.packs_of::<wide::Z16>(&q);
+        packs == 0 || self.any_hit_avx512(&q, packs, skip)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f")]
+    #[inline(never)]
+    fn any_hit_avx512(&self, q: &Query, packs: u32, skip: [u32; 2]) -> bool {
+        self.any_hit::<wide::Z16>(q, packs, skip)
     }
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
     fn unoccluded_avx2(&self, q: Query, skip: [u32; 2]) -> bool {
-        self.any_hit::<wide::Y8>(q, skip)
+        let packs = self.packs_of::<wide::Y8>(&q);
+        packs == 0 || self.any_hit_avx2(&q, packs, skip)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    #[inline(never)]
+    fn any_hit_avx2(&self, q: &Query, packs: u32, skip: [u32; 2]) -> bool {
+        self.any_hit::<wide::Y8>(q, packs, skip)
     }
 
     #[cfg(target_arch = "x86_64")]
@@ -290,6 +339,37 @@ impl SmallScene {
         self.closest::<wide::Y8>(q)
     }
 
+    /// The packs the query scans (bit per pack). The slab test is [`super::bvh::Accel`]'s, lane
+    /// for lane: the same operations in the same order, so it enters the same boxes (far
+    /// distances widened by [`SLAB_PAD`]: rounding never culls a box the ray meets).
+    #[inline(always)]
+    fn packs_of<V: Wide>(&self, q: &Query) -> u32 {
+        // Plain loops, no closures: a closure is not compiled with the caller's target features,
+        // and its vector operations would be calls.
+        let [lo, hi] = &self.boxes;
+        let mut m = 0;
+        let mut at = 0;
+        match q.packs {
+            Packs::Only(packs) => return packs & self.all,
+            Packs::Entered => {
+                let (o, inv) = (q.o.to_array(), q.d.recip().to_array());
+                while at < MAX_PACKS && self.all >> at != 0 {
+                    let (mut near, mut far) = (V::splat(q.tmin), V::splat(q.tmax));
+                    for a in 0..3 {
+                        let (n, f) = if inv[a] < 0.0 { (hi, lo) } else { (lo, hi) };
+                        let (org, inv) = (V::splat(o[a]), V::splat(inv[a]));
+                        near = near.max(V::load(&n[a], at).sub(org).mul(inv));
+                        let pad = V::splat(SLAB_PAD);
+                        far = far.min(V::load(&f[a], at).sub(org).mul(inv).mul(pad));
+                    }
+                    m |= near.le(far).bits() << at;
+                    at += V::WIDTH;
+                }
+            }
+        }
+        m & self.all
+    }
+
     /// The closest hit, without a branch per lane or per pack: each lane keeps the least
     /// distance its triangles in the packs entered reach (and, at equal distances, the earliest
     /// pack's), then among the lanes at the least distance over all, the lowest primitive index —
@@ -298,16 +378,16 @@ impl SmallScene {
     #[inline(always)]
     fn closest<V: Wide>(&self, q: Query) -> Option<Hit> {
         let Query {
-            o,
-            d,
-            tmin,
-            tmax,
-            packs,
+            o, d, tmin, tmax, ..
         } = q;
+        let packs = self.packs_of::<V>(&q);
+        if packs == 0 {
+            return None;
+        }
         let sh = shear(o, d);
         let inf = V::splat(f32::INFINITY);
         let (mut t, mut b1, mut b2, mut prim) = (inf, inf, inf, inf);
-        let (mut left, mut redo) = (packs & self.all, V::Mask::from_bits(0));
+        let (mut left, mut redo) = (packs, V::Mask::from_bits(0));
         while left != 0 {
             let p = &self.packs[left.trailing_zeros() as usize];
             left &= left - 1;
@@ -391,20 +471,16 @@ impl SmallScene {
         best
     }
 
-    /// Whether the segment is free of triangles off the planes `skip`: every pack is tested
-    /// before one branch on the result; a lane to redo goes to the scalar test.
+    /// Whether the segment is free of triangles off the planes `skip` in the packs `packs`: every
+    /// pack is tested before one branch on the result; a lane to redo goes to the scalar test.
     #[inline(always)]
-    fn any_hit<V: Wide>(&self, q: Query, skip: [u32; 2]) -> bool {
+    fn any_hit<V: Wide>(&self, q: &Query, packs: u32, skip: [u32; 2]) -> bool {
         let Query {
-            o,
-            d,
-            tmin,
-            tmax,
-            packs,
-        } = q;
+            o, d, tmin, tmax, ..
+        } = *q;
         let sh = shear(o, d);
         let (mut hit, mut redo) = (false, false);
-        let mut left = packs & self.all;
+        let mut left = packs;
         while left != 0 {
             let p = &self.packs[left.trailing_zeros() as usize];
             left &= left - 1;
@@ -670,7 +746,12 @@ trait Wide: Copy {
     fn lane(self, lane: usize) -> f32 {
         self.store()[lane]
     }
+    /// The lane-wise maximum (`b` where either is NaN, as `maxps` and glam's `max`).
+    fn max(self, b: Self) -> Self;
+    /// The lane-wise minimum (`b` where either is NaN, as `minps` and glam's `min`).
+    fn min(self, b: Self) -> Self;
     fn lt(self, b: Self) -> Self::Mask;
+    fn le(self, b: Self) -> Self::Mask;
     fn eq(self, b: Self) -> Self::Mask;
     /// The lanes where the sign bits of `a`, `b` and `c` are not all equal.
     fn signs_differ(a: Self, b: Self, c: Self) -> Self::Mask;
@@ -798,8 +879,20 @@ mod wide {
             unsafe { _mm512_reduce_min_ps(self.0) }
         }
         #[inline(always)]
+        fn max(self, b: Self) -> Self {
+            Self(unsafe { _mm512_max_ps(self.0, b.0) })
+        }
+        #[inline(always)]
+        fn min(self, b: Self) -> Self {
+            Self(unsafe { _mm512_min_ps(self.0, b.0) })
+        }
+        #[inline(always)]
         fn lt(self, b: Self) -> u32 {
             unsafe { _mm512_cmp_ps_mask::<_CMP_LT_OQ>(self.0, b.0) as u32 }
+        }
+        #[inline(always)]
+        fn le(self, b: Self) -> u32 {
+            unsafe { _mm512_cmp_ps_mask::<_CMP_LE_OQ>(self.0, b.0) as u32 }
         }
         #[inline(always)]
         fn eq(self, b: Self) -> u32 {
@@ -872,8 +965,20 @@ mod wide {
             }
         }
         #[inline(always)]
+        fn max(self, b: Self) -> Self {
+            Self(unsafe { _mm256_max_ps(self.0, b.0) })
+        }
+        #[inline(always)]
+        fn min(self, b: Self) -> Self {
+            Self(unsafe { _mm256_min_ps(self.0, b.0) })
+        }
+        #[inline(always)]
         fn lt(self, b: Self) -> M8 {
             M8(unsafe { _mm256_cmp_ps::<_CMP_LT_OQ>(self.0, b.0) })
+        }
+        #[inline(always)]
+        fn le(self, b: Self) -> M8 {
+            M8(unsafe { _mm256_cmp_ps::<_CMP_LE_OQ>(self.0, b.0) })
         }
         #[inline(always)]
         fn eq(self, b: Self) -> M8 {
