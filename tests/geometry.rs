@@ -351,6 +351,42 @@ fn coincident_triangles_make_a_deep_tree_that_still_works() {
     );
 }
 
+/// Input on which PLOC takes quadratic time — more than 2,048 primitives whose boxes share one
+/// centre: 2,100 copies of one triangle among 300 random ones and a sphere — is built by median
+/// splits instead (`bvh::median_split_tree`), and that tree answers closest-hit and shadow rays as
+/// brute force does.
+#[test]
+fn many_copies_of_one_triangle_build_by_median_splits() {
+    let mut rng = Sampler::new(31, 32, 33);
+    let mut r3 = || Vec3A::new(rng.next_1d(), rng.next_1d(), rng.next_1d()) * 2.0 - Vec3A::ONE;
+    let mut prims: Vec<Prim> = (0..300)
+        .map(|_| {
+            let c = r3();
+            Prim::triangle([c, c + r3() * 0.2, c + r3() * 0.2])
+        })
+        .collect();
+    let copy = Prim::triangle([
+        Vec3A::new(-0.5, -0.5, 0.2),
+        Vec3A::new(0.5, -0.5, 0.2),
+        Vec3A::new(0.0, 0.5, 0.2),
+    ]);
+    for k in 0..2100 {
+        prims.insert(k % prims.len(), copy);
+    }
+    prims.push(Prim::Sphere {
+        center: Vec3A::new(0.3, -0.2, 0.1),
+        radius: 0.25,
+    });
+    let accel = build(&prims);
+    let mut hits = 0;
+    for _ in 0..5_000 {
+        let o = r3() * 1.5;
+        let d = r3().normalize();
+        hits += matches_brute_force(&accel, &prims, o, d, 2.0, false) as u32;
+    }
+    assert!(hits > 400, "{hits}");
+}
+
 /// The small-scene scan for each SIMD extension of this CPU gives brute force's closest hit bit for
 /// bit (distance, primitive — the lowest index among equal distances — and barycentrics) and its
 /// shadow-ray answer (skipping planes), on rays
