@@ -161,16 +161,22 @@ fn matches_brute_force(
     }
 }
 
-#[test]
-fn bvh_matches_brute_force() {
-    let mut rng = Sampler::new(8, 9, 10);
+/// `n` random triangles in [-1, 1]³, each vertex within 0.2 of the first along every axis.
+fn triangle_soup(n: usize, rng: &mut Sampler) -> Vec<Prim> {
     let mut r3 = || Vec3A::new(rng.next_1d(), rng.next_1d(), rng.next_1d()) * 2.0 - Vec3A::ONE;
-    let mut prims: Vec<Prim> = (0..400)
+    (0..n)
         .map(|_| {
             let c = r3();
             Prim::triangle([c, c + r3() * 0.2, c + r3() * 0.2])
         })
-        .collect();
+        .collect()
+}
+
+#[test]
+fn bvh_matches_brute_force() {
+    let mut rng = Sampler::new(8, 9, 10);
+    let mut prims = triangle_soup(400, &mut rng);
+    let mut r3 = || Vec3A::new(rng.next_1d(), rng.next_1d(), rng.next_1d()) * 2.0 - Vec3A::ONE;
     prims.push(Prim::Sphere {
         center: Vec3A::new(0.3, -0.2, 0.1),
         radius: 0.25,
@@ -358,13 +364,8 @@ fn coincident_triangles_make_a_deep_tree_that_still_works() {
 #[test]
 fn many_copies_of_one_triangle_build_by_median_splits() {
     let mut rng = Sampler::new(31, 32, 33);
+    let mut prims = triangle_soup(300, &mut rng);
     let mut r3 = || Vec3A::new(rng.next_1d(), rng.next_1d(), rng.next_1d()) * 2.0 - Vec3A::ONE;
-    let mut prims: Vec<Prim> = (0..300)
-        .map(|_| {
-            let c = r3();
-            Prim::triangle([c, c + r3() * 0.2, c + r3() * 0.2])
-        })
-        .collect();
     let copy = Prim::triangle([
         Vec3A::new(-0.5, -0.5, 0.2),
         Vec3A::new(0.5, -0.5, 0.2),
