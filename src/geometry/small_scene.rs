@@ -60,7 +60,7 @@ pub struct SmallScene {
     /// Each pack's bounding box (low and high corners).
     bounds: Vec<[Vec3A; 2]>,
     /// The same boxes by lane, `boxes[corner][axis][pack]`, for the slab test; lanes without a
-    /// pack hold an empty box (low +∞, high −∞), which no ray enters.
+    /// pack hold an empty box (low +∞, high −∞) and are masked off by `all`.
     boxes: [[[f32; LANES]; 3]; 2],
     /// A bit for each pack.
     all: u32,
@@ -102,8 +102,8 @@ pub struct Query {
     pub packs: Packs,
 }
 
-/// One step's lanes: hit in `(tmin, tmax)` and to redo in the scalar test, each hit lane's
-/// distance (+∞ in the others) and barycentrics.
+/// One step's lanes: hit in `(tmin, tmax)` and to redo in the scalar test, and each lane's
+/// distance and barycentrics (meaningful in the hit lanes).
 #[derive(Clone, Copy)]
 struct Lanes<V: Wide> {
     hit: V::Mask,
@@ -144,7 +144,7 @@ impl Pack {
         Lanes {
             hit,
             redo,
-            t: V::select(hit, t, V::splat(f32::INFINITY)),
+            t,
             b1: e1.mul(inv_det),
             b2: e2.mul(inv_det),
         }
@@ -340,8 +340,8 @@ impl SmallScene {
     }
 
     /// The packs the query scans (bit per pack). The slab test is [`super::bvh::Accel`]'s, lane
-    /// for lane: the same operations in the same order, so it enters the same boxes (far
-    /// distances widened by [`SLAB_PAD`]: rounding never culls a box the ray meets).
+    /// for lane: the same distances, so it enters the same boxes (far distances widened by
+    /// [`SLAB_PAD`]: rounding never culls a box the ray meets).
     #[inline(always)]
     fn packs_of<V: Wide>(&self, q: &Query) -> u32 {
         // Plain loops, no closures: a closure is not compiled with the caller's target features,
@@ -356,11 +356,15 @@ impl SmallScene {
                 while at < MAX_PACKS && self.all >> at != 0 {
                     let (mut near, mut far) = (V::splat(q.tmin), V::splat(q.tmax));
                     for a in 0..3 {
-                        let (n, f) = if inv[a] < 0.0 { (hi, lo) } else { (lo, hi) };
+                        // The distances to both planes, the nearer where the ray enters the slab:
+                        // the very distances the tree picks by the direction's sign (`inv` is
+                        // finite away from axis planes, so neither is NaN; lanes without a pack
+                        // are masked off below).
                         let (org, inv) = (V::splat(o[a]), V::splat(inv[a]));
-                        near = near.max(V::load(&n[a], at).sub(org).mul(inv));
-                        let pad = V::splat(SLAB_PAD);
-                        far = far.min(V::load(&f[a], at).sub(org).mul(inv).mul(pad));
+                        let t0 = V::load(&lo[a], at).sub(org).mul(inv);
+                        let t1 = V::load(&hi[a], at).sub(org).mul(inv);
+                        near = near.max(t0.min(t1));
+                        far = far.min(t0.max(t1).mul(V::splat(SLAB_PAD)));
                     }
                     m |= near.le(far).bits() << at;
                     at += V::WIDTH;
@@ -394,7 +398,7 @@ impl SmallScene {
             for at in p.steps::<V>() {
                 let l = p.test::<V>(at, &sh, tmin, tmax);
                 redo = redo | l.redo;
-                let closer = l.t.lt(t);
+                let closer = l.hit & l.t.lt(t);
                 t = V::select(closer, l.t, t);
                 b1 = V::select(closer, l.b1, b1);
                 b2 = V::select(closer, l.b2, b2);
