@@ -7,8 +7,9 @@
 //! The tree's shape comes from obvhs' (0.4) binary PLOC builder with reinsertion
 //! ([`build_bvh2`]), or for input that would take PLOC quadratic time (many primitives whose
 //! boxes share a centre) from median splits ([`median_split_tree`]); it is collapsed here to four
-//! children per node, always opening the child with the largest surface, without recursion. Closest-hit traversal is front to back (a popped
-//! node farther than the closest hit so far is skipped); shadow rays stop at the first hit.
+//! children per node, always opening the child with the largest surface, without recursion.
+//! Closest-hit traversal is front to back (a popped node farther than the closest hit so far is
+//! skipped); shadow rays stop at the first hit.
 //!
 //! Three points keep hits exact:
 //! - triangles use the watertight test (Woop, Benthin and Wald 2013) lane by lane with the very
@@ -686,7 +687,7 @@ impl Accel {
 
 /// Most primitives whose boxes may share a centre before PLOC is not used: PLOC pairs each cluster
 /// with its nearest neighbour among those adjacent in Morton order, and boxes with one centre
-/// (copies of a triangle, faces nested around a point) share a Morton code and chain their
+/// (copies of a triangle, coincident faces) share a Morton code and chain their
 /// nearest neighbours, so that each pass merges a pair or two of them: quadratic time (10,000
 /// copies of one triangle took 2.8 s to build, 20,000 took 11 s; 2,048 take about 0.1 s).
 const MAX_SHARED_CENTRE: usize = 2048;
