@@ -57,10 +57,9 @@ enum Isa {
 #[derive(Clone)]
 pub struct SmallScene {
     packs: Vec<Pack>,
-    /// Each pack's bounding box (low and high corners).
-    bounds: Vec<[Vec3A; 2]>,
-    /// The same boxes by lane, `boxes[corner][axis][pack]`, for the slab test; lanes without a
-    /// pack hold an empty box (low +∞, high −∞) and are masked off by `all`.
+    /// Each pack's bounding box by lane, `boxes[corner][axis][pack]` (low and high corners), for
+    /// the slab test; lanes without a pack hold an empty box (low +∞, high −∞) and are masked
+    /// off by `all`.
     boxes: [[[f32; LANES]; 3]; 2],
     /// A bit for each pack.
     all: u32,
@@ -208,7 +207,7 @@ impl SmallScene {
                 _ => None,
             })
             .collect::<Option<Vec<_>>>()?;
-        let (mut packs, mut bounds) = (Vec::new(), Vec::new());
+        let mut packs = Vec::new();
         let mut boxes = [[[f32::INFINITY; LANES]; 3], [[f32::NEG_INFINITY; LANES]; 3]];
         for run in runs(&tris) {
             let mut pack = Pack {
@@ -232,13 +231,11 @@ impl SmallScene {
                 boxes[0][a][packs.len()] = bb[0][a];
                 boxes[1][a][packs.len()] = bb[1][a];
             }
-            bounds.push(bb);
             packs.push(pack);
         }
         Some(Self {
             all: (1 << packs.len()) - 1,
             packs,
-            bounds,
             boxes,
             isa,
         })
@@ -261,15 +258,22 @@ impl SmallScene {
 
     /// Each pack's bounding box (low and high corners), in pack order: bit `k` of a
     /// [`Packs::Only`] mask.
-    pub fn bounds(&self) -> &[[Vec3A; 2]] {
-        &self.bounds
+    pub fn bounds(&self) -> Vec<[Vec3A; 2]> {
+        (0..self.packs.len()).map(|k| self.pack_box(k)).collect()
+    }
+
+    /// Pack `k`'s bounding box (low and high corners), read from its lanes of `boxes`.
+    fn pack_box(&self, k: usize) -> [Vec3A; 2] {
+        let [lo, hi] = &self.boxes;
+        [lo, hi].map(|c| Vec3A::new(c[0][k], c[1][k], c[2][k]))
     }
 
     /// The packs whose boxes overlap the box `[low, high]` (bit per pack; the traversal's test
     /// of a node against a segment's box, for rays near an axis plane).
     #[cold]
     pub fn overlapping(&self, [low, high]: [Vec3A; 2]) -> u32 {
-        self.bounds.iter().enumerate().fold(0, |m, (k, [lo, hi])| {
+        (0..self.packs.len()).fold(0, |m, k| {
+            let [lo, hi] = self.pack_box(k);
             m | ((lo.cmple(high) & hi.cmpge(low)).all() as u32) << k
         })
     }
@@ -695,7 +699,10 @@ fn shear(o: Vec3A, d: Vec3A) -> Shear {
     let (k, s) = watertight_shear(d);
     Shear {
         k,
-        ko: k.map(|a| o.to_array()[a]),
+        ko: {
+            let o = o.to_array();
+            k.map(|a| o[a])
+        },
         s,
     }
 }
