@@ -357,22 +357,26 @@ fn coincident_triangles_make_a_deep_tree_that_still_works() {
     );
 }
 
-/// Input on which PLOC takes quadratic time — more than 2,048 primitives whose boxes share one
-/// centre: 2,100 copies of one triangle among 300 random ones and a sphere — is built by median
-/// splits instead (`bvh::median_split_tree`), and that tree answers closest-hit and shadow rays as
-/// brute force does.
+/// Degenerate input for a tree builder, mixed with 300 random triangles and a sphere: 2,100
+/// copies of one triangle (boxes with one centre: no split by position separates them) and 2,100
+/// copies scaled about one of its vertices (boxes nested in each other, which chained PLOC's
+/// nearest neighbours into quadratic time). The tree answers closest-hit and shadow rays as brute
+/// force does.
 #[test]
-fn many_copies_of_one_triangle_build_by_median_splits() {
+fn copies_and_nested_copies_of_one_triangle() {
     let mut rng = Sampler::new(31, 32, 33);
     let mut prims = triangle_soup(300, &mut rng);
     let mut r3 = || Vec3A::new(rng.next_1d(), rng.next_1d(), rng.next_1d()) * 2.0 - Vec3A::ONE;
-    let copy = Prim::triangle([
+    let corners = [
         Vec3A::new(-0.5, -0.5, 0.2),
         Vec3A::new(0.5, -0.5, 0.2),
         Vec3A::new(0.0, 0.5, 0.2),
-    ]);
+    ];
     for k in 0..2100 {
-        prims.insert(k % prims.len(), copy);
+        prims.insert(k % prims.len(), Prim::triangle(corners));
+        let s = (k + 1) as f32 / 2100.0;
+        let scaled = corners.map(|c| corners[0] + (c - corners[0]) * s - Vec3A::Z * 0.3);
+        prims.insert((7 * k) % prims.len(), Prim::triangle(scaled));
     }
     prims.push(Prim::Sphere {
         center: Vec3A::new(0.3, -0.2, 0.1),

@@ -4,10 +4,10 @@
 //! boxes, tested against a ray in the four lanes of one SIMD vector (glam's `Vec4`: SSE2 on
 //! x86-64, NEON on aarch64), and leaves hold triangles in packs of four, tested the same way.
 //!
-//! The tree's shape comes from obvhs' (0.4) binary PLOC builder with reinsertion
-//! ([`build_bvh2`]), or for input that would take PLOC quadratic time (many primitives whose
-//! boxes share a centre) from median splits ([`median_split_tree`]); it is collapsed here to four
-//! children per node, always opening the child with the largest surface, without recursion.
+//! The tree's shape comes from a binary tree built top-down by the binned surface-area heuristic
+//! ([`sah_tree`], in O(n log n) whatever the input), collapsed here to four children per node,
+//! always opening the child with the largest surface, without recursion (obvhs supplies the
+//! binary tree's types).
 //! Closest-hit traversal is front to back (a popped node farther than the closest hit so far is
 //! skipped); shadow rays stop at the first hit.
 //!
@@ -26,12 +26,11 @@ use super::small_scene::{Packs, Query, SmallScene};
 use super::{Hit, Prim, intersect_triangle, watertight_shear};
 use glam::{BVec4A, Vec3A, Vec4};
 use obvhs::{
-    Boundable, BvhBuildParams,
+    Boundable,
     aabb::Aabb,
-    bvh2::{Bvh2, builder::build_bvh2, node::Bvh2Node},
+    bvh2::{Bvh2, node::Bvh2Node},
 };
 use std::cell::RefCell;
-use std::collections::HashMap;
 
 thread_local! {
     /// Each thread's traversal stack (node code, entry distance), reused from ray to ray.
@@ -58,8 +57,8 @@ fn near_axis_plane(d: Vec3A) -> bool {
 const LEAF: u32 = 1 << 31;
 /// An unused child slot (its box is empty, so no ray or segment enters it).
 const EMPTY: u32 = u32::MAX;
-/// At most this many primitives per leaf (one pack of triangles): obvhs' collapse of the binary
-/// tree makes such leaves where the surface-area heuristic prefers them.
+/// At most this many primitives per leaf (one pack of triangles): the binary tree is split down
+/// to leaves of this many or fewer.
 const LEAF_PRIMS: u32 = 4;
 /// 1 + 2γ₃ (pbrt-v4): the factor that makes the slab test conservative under rounding.
 pub(super) const SLAB_PAD: f32 =
@@ -263,7 +262,7 @@ impl Ray4 {
     }
 }
 
-/// Builds the 4-wide tree from obvhs' binary one, without recursion (degenerate input, such as
+/// Builds the 4-wide tree from the binary one, without recursion (degenerate input, such as
 /// thousands of coincident triangles, makes a deep binary tree).
 struct Collapse<'a> {
     bvh2: &'a Bvh2,
@@ -288,8 +287,8 @@ impl<'a> Collapse<'a> {
         }
     }
 
-    /// Whether binary node `i` becomes a leaf: a leaf of the binary tree (obvhs' collapse makes
-    /// leaves of up to [`LEAF_PRIMS`] primitives where the surface-area heuristic prefers them).
+    /// Whether binary node `i` becomes a leaf: a leaf of the binary tree (up to [`LEAF_PRIMS`]
+    /// primitives).
     fn is_leaf(&self, i: usize) -> bool {
         self.bvh2.nodes[i].is_leaf()
     }
@@ -416,20 +415,7 @@ impl Accel {
             let s = prim_shape[i];
             if planar[s as usize] { s } else { NO_PLANE }
         };
-        // The binary tree: PLOC (Meister and Bittner 2018), reinsertion, leaves of up to four
-        // primitives where the surface-area heuristic prefers them, reinsertion again.
-        let bvh2 = if ploc_degenerate(prims) {
-            median_split_tree(prims)
-        } else {
-            build_bvh2(
-                prims,
-                BvhBuildParams {
-                    max_prims_per_leaf: LEAF_PRIMS,
-                    ..BvhBuildParams::medium_build()
-                },
-                &mut Default::default(),
-            )
-        };
+        let bvh2 = sah_tree(prims);
         let mut c = Collapse::new(&bvh2, prims, &plane);
         if !prims.is_empty() {
             c.run();
@@ -685,67 +671,147 @@ impl Accel {
     }
 }
 
-/// Most primitives whose boxes may share a centre before PLOC is not used: PLOC pairs each cluster
-/// with its nearest neighbour among those adjacent in Morton order, and boxes with one centre
-/// (copies of a triangle, coincident faces) share a Morton code and chain their
-/// nearest neighbours, so that each pass merges a pair or two of them: quadratic time (10,000
-/// copies of one triangle took 2.8 s to build, 20,000 took 11 s; 2,048 take about 0.1 s).
-const MAX_SHARED_CENTRE: usize = 2048;
+/// Bins per axis of the binned surface-area heuristic (Wald 2007, "On fast construction of
+/// SAH-based bounding volume hierarchies").
+const SAH_BINS: usize = 16;
 
-/// Whether PLOC would take quadratic time on `prims`: more than [`MAX_SHARED_CENTRE`] of them
-/// have boxes with the very same centre.
-fn ploc_degenerate(prims: &[Prim]) -> bool {
-    if prims.len() <= MAX_SHARED_CENTRE {
-        return false;
-    }
-    let mut count: HashMap<[u32; 3], usize> = HashMap::new();
-    prims.iter().any(|p| {
-        let c = p.aabb().center().to_array().map(f32::to_bits);
-        let n = count.entry(c).or_default();
-        *n += 1;
-        *n > MAX_SHARED_CENTRE
-    })
-}
-
-/// A binary tree of `prims` by median splits, in O(n log n) whatever the input: each node's
-/// primitives are split in half at the median of their boxes' centres along the axis where those
-/// spread most (by index where they do not spread at all), down to leaves of [`LEAF_PRIMS`]. Its
-/// quality is below PLOC's, which is why it serves only input PLOC cannot take.
-fn median_split_tree(prims: &[Prim]) -> Bvh2 {
+/// A binary tree of `prims` by the binned surface-area heuristic, in O(n log n) whatever the
+/// input: each node's primitives are binned by their boxes' centres along each axis and split
+/// at the bin boundary of least cost (area × count on either side, Wald 2007). Where the centres
+/// do not spread, or the node lies deeper than `2 log₂ n + 16` (a run of lopsided splits, as
+/// nested boxes give), the split is at the median along the axis of most spread (by index where
+/// the centres do not spread at all), so no input takes more than O(n log n). Leaves hold up to
+/// [`LEAF_PRIMS`] primitives.
+fn sah_tree(prims: &[Prim]) -> Bvh2 {
     let boxes: Vec<Aabb> = prims.iter().map(Prim::aabb).collect();
+    let centres: Vec<Vec3A> = boxes.iter().map(Aabb::center).collect();
     let mut index: Vec<u32> = (0..prims.len() as u32).collect();
     let mut nodes = vec![Bvh2Node::new(Aabb::empty(), 0, 0)];
-    let mut todo = vec![(0, 0..prims.len())];
-    while let Some((id, range)) = todo.pop() {
+    let deepest = 2 * (usize::BITS - prims.len().leading_zeros()) as usize + 16;
+    let mut todo = vec![(0, 0..prims.len(), 0)];
+    while let Some((id, range, depth)) = todo.pop() {
         let part = &mut index[range.clone()];
-        let bounds = part
+        let (bounds, spread) = part
             .iter()
-            .fold(Aabb::empty(), |b, &i| b.union(&boxes[i as usize]));
+            .fold((Aabb::empty(), Aabb::empty()), |(b, c), &i| {
+                let i = i as usize;
+                (b.union(&boxes[i]), c.union(&Aabb::from_point(centres[i])))
+            });
         if part.len() <= LEAF_PRIMS as usize {
             nodes[id] = Bvh2Node::new(bounds, part.len() as u32, range.start as u32);
             continue;
         }
-        let centre = |i: u32| boxes[i as usize].center();
-        let spread = part
-            .iter()
-            .fold(Aabb::empty(), |b, &i| b.union(&Aabb::from_point(centre(i))));
-        let axis = spread.largest_axis();
-        let half = part.len() / 2;
-        part.select_nth_unstable_by(half, |&a, &b| {
-            centre(a)[axis].total_cmp(&centre(b)[axis]).then(a.cmp(&b))
-        });
+        let split = match depth < deepest {
+            true => sah_split(part, &boxes, &centres, &spread),
+            false => None,
+        };
+        let half = match split {
+            Some(split) => partition(part, |i| split.left(centres[i as usize])),
+            None => {
+                let axis = spread.largest_axis();
+                let half = part.len() / 2;
+                part.select_nth_unstable_by(half, |&a, &b| {
+                    let (ca, cb) = (centres[a as usize][axis], centres[b as usize][axis]);
+                    ca.total_cmp(&cb).then(a.cmp(&b))
+                });
+                half
+            }
+        };
         let first = nodes.len();
         nodes.extend([Bvh2Node::new(Aabb::empty(), 0, 0); 2]);
         nodes[id] = Bvh2Node::new(bounds, 0, first as u32);
         let mid = range.start + half;
-        todo.push((first, range.start..mid));
-        todo.push((first + 1, mid..range.end));
+        todo.push((first, range.start..mid, depth + 1));
+        todo.push((first + 1, mid..range.end, depth + 1));
     }
     Bvh2 {
         nodes,
         primitive_indices: index,
         ..Default::default()
     }
+}
+
+/// A split of a node's primitives: those whose centres fall in the bins below `bin` along `axis`
+/// go left.
+#[derive(Clone, Copy)]
+struct Split {
+    axis: usize,
+    lo: f32,
+    scale: f32,
+    bin: usize,
+}
+
+impl Split {
+    /// The bin of `c` along the axis.
+    fn bin_of(&self, c: Vec3A) -> usize {
+        (((c[self.axis] - self.lo) * self.scale) as usize).min(SAH_BINS - 1)
+    }
+    fn left(&self, c: Vec3A) -> bool {
+        self.bin_of(c) < self.bin
+    }
+}
+
+/// The binned-SAH split of `part` (centres spanning `spread`): the axis and bin boundary with
+/// the least area × count on its two sides, or `None` where no axis puts primitives on both
+/// sides of any boundary.
+fn sah_split(part: &[u32], boxes: &[Aabb], centres: &[Vec3A], spread: &Aabb) -> Option<Split> {
+    let mut best: Option<(f32, Split)> = None;
+    for axis in 0..3 {
+        let (lo, extent) = (spread.min[axis], spread.max[axis] - spread.min[axis]);
+        if !(extent > 0.0) {
+            continue;
+        }
+        let at = |bin| Split {
+            axis,
+            lo,
+            scale: SAH_BINS as f32 / extent,
+            bin,
+        };
+        let mut bins = [(Aabb::empty(), 0u32); SAH_BINS];
+        for &i in part {
+            let b = &mut bins[at(0).bin_of(centres[i as usize])];
+            b.0 = b.0.union(&boxes[i as usize]);
+            b.1 += 1;
+        }
+        // Cost of the right side of each boundary, swept from the right.
+        let mut right = [0.0f32; SAH_BINS];
+        let (mut acc, mut n) = (Aabb::empty(), 0u32);
+        for k in (1..SAH_BINS).rev() {
+            acc = acc.union(&bins[k].0);
+            n += bins[k].1;
+            right[k] = if n > 0 {
+                acc.half_area() * n as f32
+            } else {
+                f32::INFINITY
+            };
+        }
+        let (mut acc, mut n) = (Aabb::empty(), 0u32);
+        for k in 1..SAH_BINS {
+            acc = acc.union(&bins[k - 1].0);
+            n += bins[k - 1].1;
+            let cost = if n > 0 {
+                acc.half_area() * n as f32 + right[k]
+            } else {
+                f32::INFINITY
+            };
+            if cost.is_finite() && best.is_none_or(|b| cost < b.0) {
+                best = Some((cost, at(k)));
+            }
+        }
+    }
+    best.map(|b| b.1)
+}
+
+/// Reorder `part` so that the entries `left` holds for come first; returns how many there are.
+fn partition(part: &mut [u32], left: impl Fn(u32) -> bool) -> usize {
+    let mut at = 0;
+    for k in 0..part.len() {
+        if left(part[k]) {
+            part.swap(at, k);
+            at += 1;
+        }
+    }
+    at
 }
 
 /// Brute-force closest hit over every primitive: the test oracle for [`Accel`].
