@@ -58,8 +58,8 @@ def main() -> None:
     from nlos_rs.values import normalize
 
     made = suite.workloads(False)[args.workload][0]()
-    if isinstance(made, tuple):  # a scene file and its spp: both builds read it
-        path, spp = made
+    if isinstance(made, tuple):  # a scene file, its spp and $parameters: both builds read it
+        path, spp, params = (*made, {})[:3]
         made = None
     else:
         spp = suite.spp_of(made)
@@ -68,7 +68,7 @@ def main() -> None:
     runs = []
     for tag, build in (("build_a", args.a), ("build_b", args.b)):
         c = core(tag, build)
-        scene = c.load_file(path, {}) if made is None else c.load_dict(normalize(made), os.getcwd())
+        scene = c.load_file(path, {k: str(v) for k, v in params.items()}) if made is None else c.load_dict(normalize(made), os.getcwd())
         runs.append((c, scene))
 
     def render(k: int) -> float:

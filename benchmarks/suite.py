@@ -16,7 +16,10 @@ Workloads (most were not tuned for): the built-in Z (single, confocal, exhaustiv
 flat letter at 1 m, unbounded depth, albedo 0.7, and a 200k-triangle bumpy sphere (single and
 confocal each); the T behind two
 corners (five-vertex signal); Mitsuba's own mi.cornell_box() made transient (line of sight); a
-1×1 capture; rgb; mitransient's example file nlos-z-simple.xml (a perspective camera). mitransient's time is its render call with dr.eval + dr.sync_thread.
+1×1 capture; rgb; mitransient's example files nlos-z-simple.xml (a perspective camera),
+nlos-z-room.xml (the Z among walls) and cornell-box/cbox_diffuse.xml (line of sight, 64×64), and a
+confocal capture tal wrote (tests/data/tal021, unbounded depth). mitransient's time is its render
+call with dr.eval + dr.sync_thread.
 """
 
 from __future__ import annotations
@@ -65,6 +68,7 @@ def workloads(quick: bool):
     from nlos_rs import scenes
 
     div = 16 if quick else 1
+    data = Path(__file__).resolve().parent.parent / "tests" / "data"
     T = nlos_rs.Transform4f
 
     def z(spp, **kw):
@@ -107,8 +111,15 @@ def workloads(quick: bool):
         "one_pixel": (lambda: z(1 << 22, width=1, height=1), "mono"),
         "z_rgb": (lambda: z(4096, width=32, height=32), "rgb"),
         # mitransient's own example file: a perspective camera looks at the relay wall.
-        "mitransient_camera_file": (lambda: (str(Path(__file__).resolve().parent.parent / "tests" / "data" / "mitransient"
-                                                 / "transient-nlos" / "nlos-z-simple.xml"), max(1, 4096 // div)), "mono"),
+        "mitransient_camera_file": (lambda: (str(data / "mitransient" / "transient-nlos" / "nlos-z-simple.xml"),
+                                             max(1, 4096 // div)), "mono"),
+        # mitransient's Z in a room (walls around the hidden Z) and its Cornell box file (line of sight,
+        # $res and $spp set here), and a confocal capture written by tal (unbounded depth).
+        "mitransient_room_file": (lambda: (str(data / "mitransient" / "transient-nlos" / "nlos-z-room.xml"),
+                                           max(1, 8192 // div)), "mono"),
+        "mitransient_cbox_file": (lambda: (str(data / "mitransient" / "cornell-box" / "cbox_diffuse.xml"),
+                                           max(1, 256 // div), {"res": 64}), "mono"),
+        "tal_confocal_file": (lambda: (str(data / "tal021" / "confocal.xml"), max(1, (1 << 19) // div)), "mono"),
     }
 
 
@@ -180,9 +191,9 @@ def main() -> None:
         import drjit as dr
 
         dr.set_thread_count(args.threads)
-        if isinstance(d, tuple):  # a scene file and the spp to render it at
-            path, spp = d
-            ours_scene = nlos_rs.load_file(path)
+        if isinstance(d, tuple):  # a scene file, the spp to render it at and its $parameters
+            path, spp, params = (*d, {})[:3]
+            ours_scene = nlos_rs.load_file(path, **params)
             npix = ours_scene.film_size[0] * ours_scene.film_size[1]
         else:
             spp, npix = spp_of(d), pixels(d)
@@ -218,7 +229,7 @@ def main() -> None:
         scaling, busy = min(one) / wall, cpu / wall
         scaling_total = sum(one) / sum(w for w, _ in many)
         scaling_paired = statistics.median(a / w for a, (w, _) in zip(one, many))
-        theirs_scene = mi.load_file(d[0]) if isinstance(d, tuple) else mi.load_dict(to_mitsuba(d))
+        theirs_scene = mi.load_file(path, **params) if isinstance(d, tuple) else mi.load_dict(to_mitsuba(d))
         theirs()
         to, tt = [], []
         for _ in range(args.repeats):
