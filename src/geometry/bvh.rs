@@ -6,8 +6,7 @@
 //!
 //! The tree's shape comes from a binary tree built top-down by the binned surface-area heuristic
 //! ([`sah_tree`], in O(n log n) whatever the input), collapsed here to four children per node,
-//! always opening the child with the largest surface, without recursion (obvhs supplies the
-//! binary tree's types).
+//! always opening the child with the largest surface, without recursion.
 //! Closest-hit traversal is front to back (a popped node farther than the closest hit so far is
 //! skipped); shadow rays stop at the first hit.
 //!
@@ -25,11 +24,6 @@
 use super::small_scene::{Packs, Query, SmallScene};
 use super::{Hit, Prim, intersect_triangle, watertight_shear};
 use glam::{BVec4A, Vec3A, Vec4};
-use obvhs::{
-    Boundable,
-    aabb::Aabb,
-    bvh2::{Bvh2, node::Bvh2Node},
-};
 use std::cell::RefCell;
 
 thread_local! {
@@ -37,11 +31,66 @@ thread_local! {
     static STACK: RefCell<Vec<(u32, f32)>> = const { RefCell::new(Vec::new()) };
 }
 
-impl Boundable for Prim {
-    fn aabb(&self) -> Aabb {
-        let (min, max) = self.bounds();
-        Aabb { min, max }
+/// An axis-aligned box (empty: min +∞, max −∞).
+#[derive(Clone, Copy, Debug)]
+struct Aabb {
+    min: Vec3A,
+    max: Vec3A,
+}
+
+impl Aabb {
+    const EMPTY: Self = Self {
+        min: Vec3A::INFINITY,
+        max: Vec3A::NEG_INFINITY,
+    };
+    fn of(prim: &Prim) -> Self {
+        let (min, max) = prim.bounds();
+        Self { min, max }
     }
+    fn point(p: Vec3A) -> Self {
+        Self { min: p, max: p }
+    }
+    fn union(&self, other: &Self) -> Self {
+        Self {
+            min: self.min.min(other.min),
+            max: self.max.max(other.max),
+        }
+    }
+    fn centre(&self) -> Vec3A {
+        (self.min + self.max) * 0.5
+    }
+    /// Half the surface area (the surface-area heuristic's measure).
+    fn half_area(&self) -> f32 {
+        let d = self.max - self.min;
+        d.x * d.y + d.y * d.z + d.z * d.x
+    }
+    /// The axis along which the box is longest (the first of equals).
+    fn largest_axis(&self) -> usize {
+        let d = self.max - self.min;
+        if d.x >= d.y && d.x >= d.z {
+            0
+        } else if d.y >= d.z {
+            1
+        } else {
+            2
+        }
+    }
+}
+
+/// A node of the binary tree [`sah_tree`] builds: a leaf holds `count` primitives from `first`
+/// on in the tree's order; an inner node (`count` 0) is the parent of nodes `first` and
+/// `first + 1`.
+#[derive(Clone, Copy)]
+struct BinaryNode {
+    bounds: Aabb,
+    first: u32,
+    count: u32,
+}
+
+/// The binary tree: its nodes (the root first) and the primitives' indices in leaf order.
+struct BinaryTree {
+    nodes: Vec<BinaryNode>,
+    order: Vec<u32>,
 }
 
 /// Is the (unit) direction parallel, to within rounding, to an axis plane? Such rays take the
@@ -265,7 +314,7 @@ impl Ray4 {
 /// Builds the 4-wide tree from the binary one, without recursion (degenerate input, such as
 /// thousands of coincident triangles, makes a deep binary tree).
 struct Collapse<'a> {
-    bvh2: &'a Bvh2,
+    tree: &'a BinaryTree,
     prims: &'a [Prim],
     plane: &'a dyn Fn(usize) -> u32,
     nodes: Vec<Node>,
@@ -275,9 +324,9 @@ struct Collapse<'a> {
 }
 
 impl<'a> Collapse<'a> {
-    fn new(bvh2: &'a Bvh2, prims: &'a [Prim], plane: &'a dyn Fn(usize) -> u32) -> Self {
+    fn new(tree: &'a BinaryTree, prims: &'a [Prim], plane: &'a dyn Fn(usize) -> u32) -> Self {
         Self {
-            bvh2,
+            tree,
             prims,
             plane,
             nodes: Vec::new(),
@@ -290,7 +339,7 @@ impl<'a> Collapse<'a> {
     /// Whether binary node `i` becomes a leaf: a leaf of the binary tree (up to [`LEAF_PRIMS`]
     /// primitives).
     fn is_leaf(&self, i: usize) -> bool {
-        self.bvh2.nodes[i].is_leaf()
+        self.tree.nodes[i].count > 0
     }
 
     /// Collapse the whole tree; node 0 is the root.
@@ -305,7 +354,7 @@ impl<'a> Collapse<'a> {
         while let Some((id, kids)) = todo.pop() {
             let mut node = EMPTY_NODE;
             for (lane, &k) in kids.iter().enumerate() {
-                let bounds = *self.bvh2.nodes[k].aabb();
+                let bounds = self.tree.nodes[k].bounds;
                 for a in 0..3 {
                     node.b[0][a][lane] = bounds.min[a];
                     node.b[1][a][lane] = bounds.max[a];
@@ -325,20 +374,20 @@ impl<'a> Collapse<'a> {
     /// Up to four binary descendants of inner node `i` that cover it: its children, then,
     /// while fewer than four, the children of the largest one that is no leaf instead of it.
     fn open(&self, i: usize) -> Vec<usize> {
-        let nodes = &self.bvh2.nodes;
-        let first = nodes[i].first_index as usize;
+        let nodes = &self.tree.nodes;
+        let first = nodes[i].first as usize;
         let mut kids = vec![first, first + 1];
         while kids.len() < 4 {
             let Some(at) = (0..kids.len())
                 .filter(|&k| !self.is_leaf(kids[k]))
                 .max_by(|&a, &b| {
-                    let area = |k: usize| nodes[kids[k]].aabb().half_area();
+                    let area = |k: usize| nodes[kids[k]].bounds.half_area();
                     area(a).total_cmp(&area(b))
                 })
             else {
                 break;
             };
-            let first = nodes[kids[at]].first_index as usize;
+            let first = nodes[kids[at]].first as usize;
             kids[at] = first;
             kids.push(first + 1);
         }
@@ -348,10 +397,10 @@ impl<'a> Collapse<'a> {
     /// The leaf of binary leaf `i`: its triangles in packs of four, its other primitives apart.
     fn leaf(&mut self, i: usize) -> u32 {
         let (first_pack, first_other) = (self.packs.len() as u32, self.others.len() as u32);
-        let n = &self.bvh2.nodes[i];
-        let range = n.first_index as usize..(n.first_index + n.prim_count) as usize;
+        let n = &self.tree.nodes[i];
+        let range = n.first as usize..(n.first + n.count) as usize;
         let mut lanes = 0;
-        for &index in &self.bvh2.primitive_indices[range] {
+        for &index in &self.tree.order[range] {
             let prim = self.prims[index as usize];
             let Prim::Triangle { v, .. } = prim else {
                 self.others.push((prim, index));
@@ -410,13 +459,13 @@ impl Accel {
         for &s in prim_shape {
             shape_prims[s as usize] += 1;
         }
-        let bounds = prims.iter().fold(Aabb::empty(), |b, p| b.union(&p.aabb()));
+        let bounds = prims.iter().fold(Aabb::EMPTY, |b, p| b.union(&Aabb::of(p)));
         let plane = |i: usize| {
             let s = prim_shape[i];
             if planar[s as usize] { s } else { NO_PLANE }
         };
-        let bvh2 = sah_tree(prims);
-        let mut c = Collapse::new(&bvh2, prims, &plane);
+        let tree = sah_tree(prims);
+        let mut c = Collapse::new(&tree, prims, &plane);
         if !prims.is_empty() {
             c.run();
         }
@@ -682,23 +731,26 @@ const SAH_BINS: usize = 16;
 /// nested boxes give), the split is at the median along the axis of most spread (by index where
 /// the centres do not spread at all), so no input takes more than O(n log n). Leaves hold up to
 /// [`LEAF_PRIMS`] primitives.
-fn sah_tree(prims: &[Prim]) -> Bvh2 {
-    let boxes: Vec<Aabb> = prims.iter().map(Prim::aabb).collect();
-    let centres: Vec<Vec3A> = boxes.iter().map(Aabb::center).collect();
+fn sah_tree(prims: &[Prim]) -> BinaryTree {
+    let boxes: Vec<Aabb> = prims.iter().map(Aabb::of).collect();
+    let centres: Vec<Vec3A> = boxes.iter().map(Aabb::centre).collect();
     let mut index: Vec<u32> = (0..prims.len() as u32).collect();
-    let mut nodes = vec![Bvh2Node::new(Aabb::empty(), 0, 0)];
+    let node = |bounds, first, count| BinaryNode {
+        bounds,
+        first: first as u32,
+        count: count as u32,
+    };
+    let mut nodes = vec![node(Aabb::EMPTY, 0, 0)];
     let deepest = 2 * (usize::BITS - prims.len().leading_zeros()) as usize + 16;
     let mut todo = vec![(0, 0..prims.len(), 0)];
     while let Some((id, range, depth)) = todo.pop() {
         let part = &mut index[range.clone()];
-        let (bounds, spread) = part
-            .iter()
-            .fold((Aabb::empty(), Aabb::empty()), |(b, c), &i| {
-                let i = i as usize;
-                (b.union(&boxes[i]), c.union(&Aabb::from_point(centres[i])))
-            });
+        let (bounds, spread) = part.iter().fold((Aabb::EMPTY, Aabb::EMPTY), |(b, c), &i| {
+            let i = i as usize;
+            (b.union(&boxes[i]), c.union(&Aabb::point(centres[i])))
+        });
         if part.len() <= LEAF_PRIMS as usize {
-            nodes[id] = Bvh2Node::new(bounds, part.len() as u32, range.start as u32);
+            nodes[id] = node(bounds, range.start, part.len());
             continue;
         }
         let split = match depth < deepest {
@@ -718,16 +770,15 @@ fn sah_tree(prims: &[Prim]) -> Bvh2 {
             }
         };
         let first = nodes.len();
-        nodes.extend([Bvh2Node::new(Aabb::empty(), 0, 0); 2]);
-        nodes[id] = Bvh2Node::new(bounds, 0, first as u32);
+        nodes.extend([node(Aabb::EMPTY, 0, 0); 2]);
+        nodes[id] = node(bounds, first, 0);
         let mid = range.start + half;
         todo.push((first, range.start..mid, depth + 1));
         todo.push((first + 1, mid..range.end, depth + 1));
     }
-    Bvh2 {
+    BinaryTree {
         nodes,
-        primitive_indices: index,
-        ..Default::default()
+        order: index,
     }
 }
 
@@ -767,7 +818,7 @@ fn sah_split(part: &[u32], boxes: &[Aabb], centres: &[Vec3A], spread: &Aabb) -> 
             scale: SAH_BINS as f32 / extent,
             bin,
         };
-        let mut bins = [(Aabb::empty(), 0u32); SAH_BINS];
+        let mut bins = [(Aabb::EMPTY, 0u32); SAH_BINS];
         for &i in part {
             let b = &mut bins[at(0).bin_of(centres[i as usize])];
             b.0 = b.0.union(&boxes[i as usize]);
@@ -775,7 +826,7 @@ fn sah_split(part: &[u32], boxes: &[Aabb], centres: &[Vec3A], spread: &Aabb) -> 
         }
         // Cost of the right side of each boundary, swept from the right.
         let mut right = [0.0f32; SAH_BINS];
-        let (mut acc, mut n) = (Aabb::empty(), 0u32);
+        let (mut acc, mut n) = (Aabb::EMPTY, 0u32);
         for k in (1..SAH_BINS).rev() {
             acc = acc.union(&bins[k].0);
             n += bins[k].1;
@@ -785,7 +836,7 @@ fn sah_split(part: &[u32], boxes: &[Aabb], centres: &[Vec3A], spread: &Aabb) -> 
                 f32::INFINITY
             };
         }
-        let (mut acc, mut n) = (Aabb::empty(), 0u32);
+        let (mut acc, mut n) = (Aabb::EMPTY, 0u32);
         for k in 1..SAH_BINS {
             acc = acc.union(&bins[k - 1].0);
             n += bins[k - 1].1;
