@@ -392,6 +392,29 @@ fn copies_and_nested_copies_of_one_triangle() {
     assert!(hits > 400, "{hits}");
 }
 
+/// A mesh large enough for the builder to split its top nodes and build their halves in parallel
+/// (40,000 triangles, on a pool of two threads) answers closest-hit and shadow rays as brute force
+/// does, like its tree built on one thread.
+#[test]
+fn large_mesh_built_in_parallel_matches_brute_force() {
+    let mut rng = Sampler::new(41, 42, 43);
+    let prims = triangle_soup(40_000, &mut rng);
+    let mut r3 = || Vec3A::new(rng.next_1d(), rng.next_1d(), rng.next_1d()) * 2.0 - Vec3A::ONE;
+    for threads in [1, 2] {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        let accel = pool.install(|| build(&prims));
+        let mut hits = 0;
+        for _ in 0..600 {
+            let (o, d) = (r3() * 1.5, r3().normalize());
+            hits += matches_brute_force(&accel, &prims, o, d, 2.0, false) as u32;
+        }
+        assert!(hits > 100, "{threads} threads: {hits}");
+    }
+}
+
 /// The small-scene scan for each SIMD extension of this CPU gives brute force's closest hit bit for
 /// bit (distance, primitive — the lowest index among equal distances — and barycentrics) and its
 /// shadow-ray answer (skipping planes), on rays

@@ -730,44 +730,84 @@ const SAH_BINS: usize = 16;
 /// do not spread, or the node lies deeper than `2 log₂ n + 16` (a run of lopsided splits, as
 /// nested boxes give), the split is at the median along the axis of most spread (by index where
 /// the centres do not spread at all), so no input takes more than O(n log n). Leaves hold up to
-/// [`LEAF_PRIMS`] primitives.
+/// [`LEAF_PRIMS`] primitives. The halves of large nodes build in parallel (on the caller's pool),
+/// into the same tree whatever the threads.
 fn sah_tree(prims: &[Prim]) -> BinaryTree {
-    let boxes: Vec<Aabb> = prims.iter().map(Aabb::of).collect();
-    let centres: Vec<Vec3A> = boxes.iter().map(Aabb::centre).collect();
-    let mut index: Vec<u32> = (0..prims.len() as u32).collect();
+    // The primitives' boxes move with them (contiguous passes over a node's part, not gathers).
+    let mut items: Vec<Item> = (prims.iter().enumerate())
+        .map(|(index, p)| {
+            let bounds = Aabb::of(p);
+            Item {
+                bounds,
+                centre: bounds.centre(),
+                index: index as u32,
+            }
+        })
+        .collect();
+    let deepest = 2 * (usize::BITS - prims.len().leading_zeros()) as usize + 16;
+    BinaryTree {
+        nodes: subtree(&mut items, 0, 0, deepest),
+        order: items.iter().map(|it| it.index).collect(),
+    }
+}
+
+/// Parts of at least this many primitives have their two halves built in parallel.
+const PARALLEL_PART: usize = 1 << 14;
+
+/// The binary tree over `part`, the primitives from `start` on in the tree's order, at `depth`:
+/// its root first, children indexed within it. Large parts split, then build their halves in
+/// parallel (the same tree as one thread would build).
+fn subtree(part: &mut [Item], start: usize, depth: usize, deepest: usize) -> Vec<BinaryNode> {
+    if part.len() < PARALLEL_PART {
+        return subtree_serial(part, start, depth, deepest);
+    }
+    let (bounds, Some(half)) = divide(part, depth < deepest) else {
+        unreachable!("a part of {PARALLEL_PART} or more primitives is no leaf")
+    };
+    let (left, right) = part.split_at_mut(half);
+    let (l, r) = rayon::join(
+        || subtree(left, start, depth + 1, deepest),
+        || subtree(right, start + half, depth + 1, deepest),
+    );
+    // The root, the halves' roots (nodes 1 and 2), then the rest of each half.
+    let moved = |n: &BinaryNode, by: usize| match n.count {
+        0 => BinaryNode {
+            first: n.first + by as u32,
+            ..*n
+        },
+        _ => *n,
+    };
+    let mut nodes = Vec::with_capacity(1 + l.len() + r.len());
+    nodes.push(BinaryNode {
+        bounds,
+        first: 1,
+        count: 0,
+    });
+    nodes.extend([moved(&l[0], 2), moved(&r[0], l.len() + 1)]);
+    nodes.extend(l[1..].iter().map(|n| moved(n, 2)));
+    nodes.extend(r[1..].iter().map(|n| moved(n, l.len() + 1)));
+    nodes
+}
+
+/// [`subtree`] on one thread, without recursion.
+fn subtree_serial(
+    items: &mut [Item],
+    start: usize,
+    depth: usize,
+    deepest: usize,
+) -> Vec<BinaryNode> {
     let node = |bounds, first, count| BinaryNode {
         bounds,
         first: first as u32,
         count: count as u32,
     };
     let mut nodes = vec![node(Aabb::EMPTY, 0, 0)];
-    let deepest = 2 * (usize::BITS - prims.len().leading_zeros()) as usize + 16;
-    let mut todo = vec![(0, 0..prims.len(), 0)];
+    let mut todo = vec![(0, 0..items.len(), depth)];
     while let Some((id, range, depth)) = todo.pop() {
-        let part = &mut index[range.clone()];
-        let (bounds, spread) = part.iter().fold((Aabb::EMPTY, Aabb::EMPTY), |(b, c), &i| {
-            let i = i as usize;
-            (b.union(&boxes[i]), c.union(&Aabb::point(centres[i])))
-        });
-        if part.len() <= LEAF_PRIMS as usize {
-            nodes[id] = node(bounds, range.start, part.len());
+        let (bounds, half) = divide(&mut items[range.clone()], depth < deepest);
+        let Some(half) = half else {
+            nodes[id] = node(bounds, start + range.start, range.len());
             continue;
-        }
-        let split = match depth < deepest {
-            true => sah_split(part, &boxes, &centres, &spread),
-            false => None,
-        };
-        let half = match split {
-            Some(split) => partition(part, |i| split.left(centres[i as usize])),
-            None => {
-                let axis = spread.largest_axis();
-                let half = part.len() / 2;
-                part.select_nth_unstable_by(half, |&a, &b| {
-                    let (ca, cb) = (centres[a as usize][axis], centres[b as usize][axis]);
-                    ca.total_cmp(&cb).then(a.cmp(&b))
-                });
-                half
-            }
         };
         let first = nodes.len();
         nodes.extend([node(Aabb::EMPTY, 0, 0); 2]);
@@ -776,10 +816,39 @@ fn sah_tree(prims: &[Prim]) -> BinaryTree {
         todo.push((first, range.start..mid, depth + 1));
         todo.push((first + 1, mid..range.end, depth + 1));
     }
-    BinaryTree {
-        nodes,
-        order: index,
+    nodes
+}
+
+/// A node's box and, unless it is a leaf (up to [`LEAF_PRIMS`] primitives), how many of its
+/// primitives go to its first child once `part` is reordered: by the binned SAH where `sah`, or
+/// at the median along the axis of most spread where it is not or finds no split.
+fn divide(part: &mut [Item], sah: bool) -> (Aabb, Option<usize>) {
+    let (bounds, spread) = part.iter().fold((Aabb::EMPTY, Aabb::EMPTY), |(b, c), it| {
+        (b.union(&it.bounds), c.union(&Aabb::point(it.centre)))
+    });
+    if part.len() <= LEAF_PRIMS as usize {
+        return (bounds, None);
     }
+    let half = match sah.then(|| sah_split(part, &spread)).flatten() {
+        Some(split) => partition(part, |it| split.left(it.centre)),
+        None => {
+            let axis = spread.largest_axis();
+            let half = part.len() / 2;
+            part.select_nth_unstable_by(half, |a, b| {
+                (a.centre[axis].total_cmp(&b.centre[axis])).then(a.index.cmp(&b.index))
+            });
+            half
+        }
+    };
+    (bounds, Some(half))
+}
+
+/// A primitive in the builder: its box, the box's centre and its index in the scene.
+#[derive(Clone, Copy)]
+struct Item {
+    bounds: Aabb,
+    centre: Vec3A,
+    index: u32,
 }
 
 /// A split of a node's primitives: those whose centres fall in the bins below `bin` along `axis`
@@ -805,25 +874,30 @@ impl Split {
 /// The binned-SAH split of `part` (centres spanning `spread`): the axis and bin boundary with
 /// the least area × count on its two sides, or `None` where no axis puts primitives on both
 /// sides of any boundary.
-fn sah_split(part: &[u32], boxes: &[Aabb], centres: &[Vec3A], spread: &Aabb) -> Option<Split> {
-    let mut best: Option<(f32, Split)> = None;
-    for axis in 0..3 {
+fn sah_split(part: &[Item], spread: &Aabb) -> Option<Split> {
+    // The axes along which the centres spread, each binned in the same pass over `part`.
+    let axes = [0, 1, 2].map(|axis| {
         let (lo, extent) = (spread.min[axis], spread.max[axis] - spread.min[axis]);
-        if !(extent > 0.0) {
-            continue;
-        }
-        let at = |bin| Split {
+        (extent > 0.0).then(|| Split {
             axis,
             lo,
             scale: SAH_BINS as f32 / extent,
-            bin,
-        };
-        let mut bins = [(Aabb::EMPTY, 0u32); SAH_BINS];
-        for &i in part {
-            let b = &mut bins[at(0).bin_of(centres[i as usize])];
-            b.0 = b.0.union(&boxes[i as usize]);
-            b.1 += 1;
+            bin: 0,
+        })
+    });
+    let mut bins = [[(Aabb::EMPTY, 0u32); SAH_BINS]; 3];
+    for it in part {
+        for (bins, at) in bins.iter_mut().zip(&axes) {
+            if let Some(at) = at {
+                let b = &mut bins[at.bin_of(it.centre)];
+                b.0 = b.0.union(&it.bounds);
+                b.1 += 1;
+            }
         }
+    }
+    let mut best: Option<(f32, Split)> = None;
+    for (bins, at) in bins.iter().zip(axes) {
+        let Some(at) = at else { continue };
         // Cost of the right side of each boundary, swept from the right.
         let mut right = [0.0f32; SAH_BINS];
         let (mut acc, mut n) = (Aabb::EMPTY, 0u32);
@@ -846,18 +920,18 @@ fn sah_split(part: &[u32], boxes: &[Aabb], centres: &[Vec3A], spread: &Aabb) -> 
                 f32::INFINITY
             };
             if cost.is_finite() && best.is_none_or(|b| cost < b.0) {
-                best = Some((cost, at(k)));
+                best = Some((cost, Split { bin: k, ..at }));
             }
         }
     }
     best.map(|b| b.1)
 }
 
-/// Reorder `part` so that the entries `left` holds for come first; returns how many there are.
-fn partition(part: &mut [u32], left: impl Fn(u32) -> bool) -> usize {
+/// Reorder `part` so that the items `left` holds for come first; returns how many there are.
+fn partition(part: &mut [Item], left: impl Fn(&Item) -> bool) -> usize {
     let mut at = 0;
     for k in 0..part.len() {
-        if left(part[k]) {
+        if left(&part[k]) {
             part.swap(at, k);
             at += 1;
         }
