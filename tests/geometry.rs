@@ -163,20 +163,41 @@ fn matches_brute_force(
 
 /// `n` random triangles in [-1, 1]³, each vertex within 0.2 of the first along every axis.
 fn triangle_soup(n: usize, rng: &mut Sampler) -> Vec<Prim> {
-    let mut r3 = || Vec3A::new(rng.next_1d(), rng.next_1d(), rng.next_1d()) * 2.0 - Vec3A::ONE;
     (0..n)
         .map(|_| {
-            let c = r3();
-            Prim::triangle([c, c + r3() * 0.2, c + r3() * 0.2])
+            let c = r3(rng);
+            Prim::triangle([c, c + r3(rng) * 0.2, c + r3(rng) * 0.2])
         })
         .collect()
+}
+
+/// A uniform point of [-1, 1]³.
+fn r3(rng: &mut Sampler) -> Vec3A {
+    Vec3A::new(rng.next_1d(), rng.next_1d(), rng.next_1d()) * 2.0 - Vec3A::ONE
+}
+
+/// How many of `rays` random rays (origins in [-1.5, 1.5]³) hit something, each checked against
+/// brute force by [`matches_brute_force`] with a shadow ray to 2.
+fn random_rays_match(
+    accel: &Accel,
+    prims: &[Prim],
+    rng: &mut Sampler,
+    rays: usize,
+    same_prim: bool,
+) -> u32 {
+    let mut hits = 0;
+    for _ in 0..rays {
+        let o = r3(rng) * 1.5;
+        let d = r3(rng).normalize();
+        hits += matches_brute_force(accel, prims, o, d, 2.0, same_prim) as u32;
+    }
+    hits
 }
 
 #[test]
 fn bvh_matches_brute_force() {
     let mut rng = Sampler::new(8, 9, 10);
     let mut prims = triangle_soup(400, &mut rng);
-    let mut r3 = || Vec3A::new(rng.next_1d(), rng.next_1d(), rng.next_1d()) * 2.0 - Vec3A::ONE;
     prims.push(Prim::Sphere {
         center: Vec3A::new(0.3, -0.2, 0.1),
         radius: 0.25,
@@ -185,12 +206,7 @@ fn bvh_matches_brute_force() {
         inv: glam::Affine3A::from_translation(glam::Vec3::new(0.0, 0.0, -0.5)).inverse(),
     });
     let accel = build(&prims);
-    let mut hits = 0;
-    for _ in 0..20_000 {
-        let o = r3() * 1.5;
-        let d = r3().normalize();
-        hits += matches_brute_force(&accel, &prims, o, d, 2.0, true) as u32;
-    }
+    let hits = random_rays_match(&accel, &prims, &mut rng, 20_000, true);
     assert!(hits > 1000);
 }
 
@@ -366,7 +382,6 @@ fn coincident_triangles_make_a_deep_tree_that_still_works() {
 fn copies_and_nested_copies_of_one_triangle() {
     let mut rng = Sampler::new(31, 32, 33);
     let mut prims = triangle_soup(300, &mut rng);
-    let mut r3 = || Vec3A::new(rng.next_1d(), rng.next_1d(), rng.next_1d()) * 2.0 - Vec3A::ONE;
     let corners = [
         Vec3A::new(-0.5, -0.5, 0.2),
         Vec3A::new(0.5, -0.5, 0.2),
@@ -383,12 +398,7 @@ fn copies_and_nested_copies_of_one_triangle() {
         radius: 0.25,
     });
     let accel = build(&prims);
-    let mut hits = 0;
-    for _ in 0..5_000 {
-        let o = r3() * 1.5;
-        let d = r3().normalize();
-        hits += matches_brute_force(&accel, &prims, o, d, 2.0, false) as u32;
-    }
+    let hits = random_rays_match(&accel, &prims, &mut rng, 5_000, false);
     assert!(hits > 400, "{hits}");
 }
 
@@ -399,18 +409,13 @@ fn copies_and_nested_copies_of_one_triangle() {
 fn large_mesh_built_in_parallel_matches_brute_force() {
     let mut rng = Sampler::new(41, 42, 43);
     let prims = triangle_soup(40_000, &mut rng);
-    let mut r3 = || Vec3A::new(rng.next_1d(), rng.next_1d(), rng.next_1d()) * 2.0 - Vec3A::ONE;
     for threads in [1, 2] {
         let pool = rayon::ThreadPoolBuilder::new()
             .num_threads(threads)
             .build()
             .unwrap();
         let accel = pool.install(|| build(&prims));
-        let mut hits = 0;
-        for _ in 0..600 {
-            let (o, d) = (r3() * 1.5, r3().normalize());
-            hits += matches_brute_force(&accel, &prims, o, d, 2.0, false) as u32;
-        }
+        let hits = random_rays_match(&accel, &prims, &mut rng, 600, false);
         assert!(hits > 100, "{threads} threads: {hits}");
     }
 }
@@ -493,11 +498,10 @@ fn small_scene_scan_is_brute_force_bit_for_bit() {
             light(-0.2, 0.2),
         ],
     );
-    let mut r3 = || Vec3A::new(rng.next_1d(), rng.next_1d(), rng.next_1d()) * 2.0 - Vec3A::ONE;
     let random: Vec<Prim> = (0..MAX_TRIANGLES)
         .map(|_| {
-            let c = r3();
-            Prim::triangle([c, c + r3() * 0.5, c + r3() * 0.5])
+            let c = r3(&mut rng);
+            Prim::triangle([c, c + r3(&mut rng) * 0.5, c + r3(&mut rng) * 0.5])
         })
         .collect();
     let scenes = [sphere, cornell, random[..17].to_vec(), random];
