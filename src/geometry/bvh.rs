@@ -459,12 +459,13 @@ impl Accel {
         for &s in prim_shape {
             shape_prims[s as usize] += 1;
         }
-        let bounds = prims.iter().fold(Aabb::EMPTY, |b, p| b.union(&Aabb::of(p)));
         let plane = |i: usize| {
             let s = prim_shape[i];
             if planar[s as usize] { s } else { NO_PLANE }
         };
         let tree = sah_tree(prims);
+        // The root's box is the scene's (empty for no primitives).
+        let bounds = tree.nodes[0].bounds;
         let mut c = Collapse::new(&tree, prims, &plane);
         if !prims.is_empty() {
             c.run();
