@@ -147,6 +147,13 @@ impl Blend<Spectrum> {
             .all(|(w, b)| *w == 0.0 || b.is_none_or(|b| b.is_delta()))
     }
 
+    /// Whether some component scatters light arriving from behind the surface.
+    pub fn scatters_behind(&self) -> bool {
+        self.parts()
+            .iter()
+            .any(|(w, b)| *w > 0.0 && b.is_some_and(|b| b.scatters_behind()))
+    }
+
     /// Whether some component is a delta.
     pub fn has_delta(&self) -> bool {
         self.parts()

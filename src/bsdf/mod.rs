@@ -334,6 +334,22 @@ impl Bsdf<Spectrum> {
         }
     }
 
+    /// Whether light arriving from behind the shading normal scatters on (`twosided` reflects it,
+    /// glass transmits it): geometric tests outside the BSDF (hidden-geometry sampling) must then
+    /// accept both sides of the surface. Every other BSDF is one-sided, as in Mitsuba.
+    #[inline]
+    pub fn scatters_behind(&self) -> bool {
+        match self {
+            Bsdf::Diffuse(_)
+            | Bsdf::Conductor(_)
+            | Bsdf::RoughConductor(_)
+            | Bsdf::Plastic(_)
+            | Bsdf::RoughPlastic(_) => false,
+            Bsdf::TwoSided(_) | Bsdf::Dielectric(_) | Bsdf::ThinDielectric(_) => true,
+            Bsdf::Blend(b) => b.scatters_behind(),
+        }
+    }
+
     /// The albedo ρ of a view-independent (Lambertian) BSDF on the side the shading normal points
     /// to, for caching a laser spot's next-event estimate once for every path that reaches it;
     /// `None` for any other BSDF.

@@ -1,7 +1,7 @@
 //! Mitsuba's `twosided`: makes a BSDF reflect on both sides of a surface. Light arriving from
 //! below the shading normal sees the (back) BSDF with the normal flipped; a path never crosses the
-//! surface. Geometric tests outside the BSDF (hidden-geometry sampling, laser spots) stay
-//! one-sided, as in mitransient.
+//! surface. Hidden-geometry sampling accepts both sides of a two-sided surface
+//! (`Bsdf::scatters_behind`); the laser spot's cosine test stays one-sided, as in mitransient.
 //!
 //! | key | type | default |
 //! |---|---|---|

@@ -23,9 +23,13 @@ use crate::settings::{CaptureType, NlosSettings};
 use glam::Vec3A;
 use std::sync::atomic::{AtomicBool, Ordering};
 
-/// The edge x → y of a hidden-geometry step, y drawn uniformly over an area A: its length r, r²,
-/// unit direction w and the cosine at y, if x faces y, y faces x and the area density converts to a
-/// solid-angle one (r² / (A·cos_y) is not vanishing) (mitransient-model §3.3).
+/// The edge x → y between two surface points, as a hidden-geometry step (y drawn uniformly over an
+/// area A) sees it: its length r, r², unit direction w and the cosine at y, if x faces y and y
+/// faces x (mitransient-model §3.3). "Faces" is one-sided (x's geometric normal towards y, y's
+/// shading normal towards x) unless that end's BSDF scatters light on the back of its surface
+/// ([`Bsdf::scatters_behind`]: `twosided`, glass): then either side, with |cos| in the density.
+/// mitransient keeps the one-sided test for every BSDF and loses what lies behind two-sided
+/// surfaces (docs/compatibility.md).
 pub(super) struct HiddenEdge {
     /// Length.
     pub(super) r: f32,
@@ -33,22 +37,39 @@ pub(super) struct HiddenEdge {
     pub(super) r2: f32,
     /// Unit direction from x to y.
     pub(super) w: Vec3A,
-    /// Cosine at y (its shading normal towards x).
+    /// |Cosine| at y (its shading normal and x).
     pub(super) cos_y: f32,
+    /// Whether hidden-geometry sampling takes the step: its area density converts to a solid-angle
+    /// one (r² / (A·cos_y) is not vanishing, as in mitransient).
+    pub(super) drawable: bool,
 }
 
 impl HiddenEdge {
+    /// `behind`: whether x's and y's BSDFs scatter behind their surfaces.
     #[inline]
-    pub(super) fn new(x: &Interaction, y: &Interaction, area: f32) -> Option<Self> {
+    pub(super) fn new(
+        x: &Interaction,
+        y: &Interaction,
+        area: f32,
+        behind: (bool, bool),
+    ) -> Option<Self> {
         let v = y.p - x.p;
         let r2 = v.length_squared();
         let r = r2.sqrt();
         let w = v / r;
-        let cos_y = y.ns.dot(-w);
-        if x.ng.dot(w) <= COS_EPS || cos_y <= COS_EPS || r2 / (area * cos_y) <= COS_EPS {
+        let facing = |cos: f32, either_side: bool| if either_side { cos.abs() } else { cos };
+        let cos_x = facing(x.ng.dot(w), behind.0);
+        let cos_y = facing(y.ns.dot(-w), behind.1);
+        if cos_x <= COS_EPS || cos_y <= COS_EPS {
             return None;
         }
-        Some(Self { r, r2, w, cos_y })
+        Some(Self {
+            r,
+            r2,
+            w,
+            cos_y,
+            drawable: r2 / (area * cos_y) > COS_EPS,
+        })
     }
 }
 
@@ -77,6 +98,8 @@ pub struct NlosTracer<'a> {
     bsdfs: Vec<Bsdf<Spectrum>>,
     /// Per shape: (every BSDF component is a delta, some component is), computed once.
     pub(super) delta: Vec<(bool, bool)>,
+    /// Per shape: whether its BSDF scatters light on the back of the surface.
+    behind: Vec<bool>,
     /// Laser irradiance (× scale).
     irradiance: Spectrum,
     /// Scan points and laser spots.
@@ -132,6 +155,7 @@ impl<'a> NlosTracer<'a> {
                 .iter()
                 .map(|b| (b.is_delta(), b.has_delta()))
                 .collect(),
+            behind: bsdfs.iter().map(Bsdf::scatters_behind).collect(),
             bsdfs,
             irradiance: nlos.laser.irradiance.spectrum(mono),
             scan_vertices: match nlos.camera {
@@ -168,6 +192,40 @@ impl<'a> NlosTracer<'a> {
     #[inline]
     pub(super) fn bsdf(&self, x: &Interaction) -> &Bsdf<Spectrum> {
         &self.bsdfs[x.shape as usize]
+    }
+
+    /// Whether `x`'s BSDF scatters light on the back of its surface.
+    #[inline]
+    pub(super) fn scatters_behind(&self, x: &Interaction) -> bool {
+        self.behind[x.shape as usize]
+    }
+
+    /// The edge x → y over the hidden area `area`, each end facing the other on a side its BSDF
+    /// scatters on.
+    #[inline]
+    pub(super) fn facing_edge(
+        &self,
+        x: &Interaction,
+        y: &Interaction,
+        area: f32,
+    ) -> Option<HiddenEdge> {
+        HiddenEdge::new(
+            x,
+            y,
+            area,
+            (self.scatters_behind(x), self.scatters_behind(y)),
+        )
+    }
+
+    /// The edge x → y if hidden-geometry sampling takes it ([`Self::facing_edge`], drawable).
+    #[inline]
+    pub(super) fn hidden_edge(
+        &self,
+        x: &Interaction,
+        y: &Interaction,
+        area: f32,
+    ) -> Option<HiddenEdge> {
+        self.facing_edge(x, y, area).filter(|e| e.drawable)
     }
 
     /// Laser sampling (mitransient-model §3.4): connect the path vertex `v` to the laser spot,
@@ -263,7 +321,7 @@ impl<'a> NlosTracer<'a> {
         rng: &mut Sampler,
     ) -> Option<Step> {
         let y = hg.sample(self.scene, rng);
-        let e = HiddenEdge::new(x, &y, hg.total_area())?;
+        let e = self.hidden_edge(x, &y, hg.total_area())?;
         let f = self.bsdf(x).eval(x.ns, wi, e.w)?;
         if !self.scene.visible_to(x, &y) {
             return None;

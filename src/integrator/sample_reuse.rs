@@ -206,7 +206,7 @@ impl NlosTracer<'_> {
             }
             let next = step(rng, &mut |rng| {
                 let x = hg.sample(self.scene, rng);
-                let e = HiddenEdge::new(&x, &it, area)?;
+                let e = self.hidden_edge(&x, &it, area)?;
                 let f = match to_light {
                     Some(to_light) => self.bsdf(&it).eval(it.ns, -e.w, to_light)?,
                     None => Spectrum::ONE,
@@ -273,20 +273,22 @@ impl NlosTracer<'_> {
     /// Whether the hidden point `y` may face some scan point: false when every corner of the
     /// scan points' bounding box lies behind its shading plane (by more than rounding), for then
     /// so does every scan point, and each connection to it would fail its cosine test (a camera's
-    /// jittered first vertices have no such box: always true).
+    /// jittered first vertices have no such box, and a BSDF that scatters behind its surface faces
+    /// both ways: always true).
     #[inline]
     fn may_face_scan_points(&self, y: &Interaction) -> bool {
-        self.scan_box.is_none_or(|[lo, hi]| {
-            (0..8).any(|i| {
-                let c = Vec3A::select(
-                    glam::BVec3A::new(i & 1 != 0, i & 2 != 0, i & 4 != 0),
-                    hi,
-                    lo,
-                );
-                let u = c - y.p;
-                y.ns.dot(u) > -1e-5 * u.length()
+        self.scatters_behind(y)
+            || self.scan_box.is_none_or(|[lo, hi]| {
+                (0..8).any(|i| {
+                    let c = Vec3A::select(
+                        glam::BVec3A::new(i & 1 != 0, i & 2 != 0, i & 4 != 0),
+                        hi,
+                        lo,
+                    );
+                    let u = c - y.p;
+                    y.ns.dot(u) > -1e-5 * u.length()
+                })
             })
-        })
     }
 
     /// Whether laser spot `spot` lights the hidden point `y`: faces it, unoccluded, sends light
@@ -455,7 +457,7 @@ impl NlosTracer<'_> {
         spots: Spots,
         out: &mut impl FnMut(Splat),
     ) {
-        let Some(e) = HiddenEdge::new(&x.it, &v.it, area) else {
+        let Some(e) = self.hidden_edge(&x.it, &v.it, area) else {
             return;
         };
         let Some(f_x) = self.bsdf(&x.it).eval(x.it.ns, x.wi, e.w) else {
