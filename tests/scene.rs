@@ -379,6 +379,54 @@ fn hidden_geometry_sampling_sees_the_back_of_two_sided_surfaces() {
 }
 
 #[test]
+fn hidden_vertices_mix_hidden_geometry_and_bsdf_sampling_without_bias() {
+    // Three two-sided rectangles crossing at one point (a "star", light exchanged across their
+    // intersection lines), two hidden vertices only (filter_bounces=3), the relay wall among the
+    // sampled geometry: the one-sample mixture of hidden-geometry and BSDF sampling at hidden
+    // vertices, with and without sample reuse, agrees per scan point with BSDF sampling alone.
+    let star = |integrator: Vec<(&str, Value)>| {
+        let mut p = scene_props(integrator, vec![]);
+        let twosided = || obj("twosided", vec![("bsdf", obj("diffuse", vec![]))]);
+        let centre = DMat4::from_translation(DVec3::new(0.0, 0.0, 1.0));
+        for (name, turn) in [
+            (
+                "star_x",
+                DMat4::from_rotation_y(std::f64::consts::FRAC_PI_2),
+            ),
+            (
+                "star_y",
+                DMat4::from_rotation_x(std::f64::consts::FRAC_PI_2),
+            ),
+            ("star_z", DMat4::IDENTITY),
+        ] {
+            let m = centre * turn * DMat4::from_scale(DVec3::splat(0.3));
+            let shape = obj(
+                "rectangle",
+                vec![("to_world", Value::Matrix(m)), ("bsdf", twosided())],
+            );
+            p.insert(name, shape).unwrap();
+        }
+        load(&p)
+    };
+    let setting = |hgs: bool| {
+        vec![
+            ("filter_bounces", Value::Int(3)),
+            (
+                "nlos_hidden_geometry_sampling_includes_relay_wall",
+                Value::Bool(true),
+            ),
+            ("nlos_hidden_geometry_sampling", Value::Bool(hgs)),
+        ]
+    };
+    let bsdf = totals(&star(setting(false)), 16384, 100..116);
+    for reuse in [true, false] {
+        let mut s = setting(true);
+        s.push(("nlos_sample_reuse", Value::Bool(reuse)));
+        agree(&totals(&star(s), 4096, 0..16), &bsdf);
+    }
+}
+
+#[test]
 fn a_shared_render_in_parts_equals_the_whole() {
     use nlos_rs::render::{Plan, assemble, render_part};
     let scene = load(&scene_props(vec![], vec![]));

@@ -1,11 +1,13 @@
 //! Integrators: how one path sample of a pixel is traced and what it contributes. Each is a
 //! [`Tracer`]: `transient_nlos_path(_rs)` is [`NlosTracer`] (with Hidden Geometry Rejection
-//! Sampling in [`hgrs`] and sample reuse across scan points in [`sample_reuse`]), `transient_path`
+//! Sampling in [`hgrs`], the mixture of hidden-geometry and BSDF sampling at hidden vertices in
+//! [`hidden_mixture`] and sample reuse across scan points in [`sample_reuse`]), `transient_path`
 //! is [`PathTracer`]. The render loop
 //! (`render.rs`) only sees the trait; a new integrator is a new file here and a line in
 //! `render::render`.
 
 pub mod hgrs;
+pub mod hidden_mixture;
 pub mod nlos;
 pub mod path;
 pub mod sample_reuse;

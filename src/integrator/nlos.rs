@@ -473,6 +473,11 @@ impl Tracer for NlosTracer<'_> {
                 (Some(hg), Some(h)) => {
                     hgrs::sample(h, rng, |rng| self.hidden_candidate(hg, &it, wi, rng))
                 }
+                // Beyond the first vertex (on the relay wall, whence the hidden scene is far and
+                // small) the mixture with BSDF sampling, unless the technique roulette chose.
+                (Some(hg), None) if depth > 0 && !st.hgs_rroulette => {
+                    self.mixture_step(hg, &it, wi, false, rng)
+                }
                 (Some(hg), None) => self.hidden_candidate(hg, &it, wi, rng),
                 (None, _) => self.bsdf_step(&it, wi, rng),
             };

@@ -1,10 +1,11 @@
 //! Sample reuse across scan points: instead of one path per scan point, a light subpath is traced
 //! through the hidden geometry and each of its vertices is connected to every scan point by one
-//! shadow ray. Every vertex is drawn uniformly over the hidden geometry's area, as hidden-geometry
-//! sampling draws them from the scan point's side, so each scan point receives the same path
-//! measurement contribution over the same density as with [`super::NlosTracer::trace`]: the
-//! estimate is unbiased and its variance per sample is that of one path, while a contribution costs
-//! one shadow ray instead of a path. The price is correlation: all scan points of a render see the
+//! shadow ray. The first vertex is drawn over the hidden geometry's area, as hidden-geometry
+//! sampling draws it from the scan point's side, and later ones from the mixture of
+//! [`super::hidden_mixture`] (from the light's end), each weighted by its area density, so each
+//! scan point receives a path measurement contribution over its density as with
+//! [`super::NlosTracer::trace`]: the estimate is unbiased and its variance per sample is that of one
+//! path, while a contribution costs one shadow ray instead of a path. The price is correlation: all scan points of a render see the
 //! same hidden points, so their noise is correlated (an image of N samples shows N hidden points'
 //! "speckle" in every pixel, not independent noise per pixel).
 //!
@@ -204,23 +205,30 @@ impl NlosTracer<'_> {
             {
                 break;
             }
-            let next = step(rng, &mut |rng| {
-                let x = hg.sample(self.scene, rng);
-                let e = self.hidden_edge(&x, &it, area)?;
-                let f = match to_light {
-                    Some(to_light) => self.bsdf(&it).eval(it.ns, -e.w, to_light)?,
-                    None => Spectrum::ONE,
-                };
-                if !self.scene.visible_to(&x, &it) {
-                    return None;
+            let next = match to_light {
+                // Lit from a known side: the mixture with BSDF sampling (the per-point tracer's
+                // step beyond its first vertex, from the light's end).
+                Some(to_light) if st.hgrs.is_none() => {
+                    self.mixture_step(hg, &it, to_light, true, rng)
                 }
-                Some(Step {
-                    next: x,
-                    dist: e.r,
-                    weight: f * (area * e.cos_y / e.r2),
-                    eta: 1.0,
-                })
-            });
+                _ => step(rng, &mut |rng| {
+                    let x = hg.sample(self.scene, rng);
+                    let e = self.hidden_edge(&x, &it, area)?;
+                    let f = match to_light {
+                        Some(to_light) => self.bsdf(&it).eval(it.ns, -e.w, to_light)?,
+                        None => Spectrum::ONE,
+                    };
+                    if !self.scene.visible_to(&x, &it) {
+                        return None;
+                    }
+                    Some(Step {
+                        next: x,
+                        dist: e.r,
+                        weight: f * (area * e.cos_y / e.r2),
+                        eta: 1.0,
+                    })
+                }),
+            };
             let Some(next) = next else {
                 break;
             };

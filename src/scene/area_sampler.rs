@@ -50,6 +50,8 @@ impl Entry {
 pub struct AreaSampler {
     dist: Discrete,
     entries: Vec<Entry>,
+    /// Per shape of the scene: whether its primitives are sampled.
+    covered: Vec<bool>,
 }
 
 impl AreaSampler {
@@ -66,7 +68,14 @@ impl AreaSampler {
         Some(Self {
             dist: Discrete::new(&weights)?,
             entries,
+            covered: (0..scene.shapes.len()).map(keep).collect(),
         })
+    }
+
+    /// Whether the points of shape `shape` are sampled (density 1/A_total there).
+    #[inline]
+    pub fn covers(&self, shape: u32) -> bool {
+        self.covered[shape as usize]
     }
 
     /// Total sampled area A_total.
