@@ -98,6 +98,11 @@ impl NlosTracer<'_> {
             return None;
         }
         let density = e.mixture_density(area, bsdf.pdf(from.ns, back, out), y.ng);
+        // Zero only for a BSDF draw whose recomputed direction falls off its lobe (rounding) or
+        // that grazes y: a sample of nothing.
+        if !(density > 0.0) {
+            return None;
+        }
         Some(Step {
             next: y,
             dist: e.r,
