@@ -16,9 +16,10 @@ from stats import agreement, ratio_with_error, rebin
 REPS = 8
 
 
-def replicates(d, spp):
+def replicates(d, spp, reference=None, reference_spp=None):
+    """Our renders of `d` and mitransient's of `reference` (default `d`), REPS seeds each."""
     ours = [nlos_rs.render(d, spp=spp, seed=k, progress=False)[1] for k in range(REPS)]
-    theirs = [render_mitransient(d, spp=spp, seed=k)[1] for k in range(REPS)]
+    theirs = [render_mitransient(reference or d, spp=reference_spp or spp, seed=k)[1] for k in range(REPS)]
     return np.array(ours), np.array(theirs)
 
 
@@ -104,7 +105,16 @@ def test_integrator_settings_match_mitransient(peer, name):
     account_first_and_last_bounces, NEE and the hidden-geometry options."""
     spp = 65536 if name == "five_vertices" else 4096  # the five-vertex signal is heavy-tailed
     d = nlos_rs.scenes.z_nlos_1corner(width=4, height=4, spp=spp, temporal_bins=400, **CONFIGS[name])
-    ours, theirs = replicates(d, spp)
+    reference, reference_spp = None, None
+    if name == "five_vertices":
+        # Part of this light passes between faces of the letter that meet at its inner corners:
+        # nlos_rs's mixture of hidden-geometry and BSDF sampling at hidden vertices finds it,
+        # mitransient's hidden-geometry sampling (a uniform point, almost never that close) has
+        # exact zeros at those times. The reference is mitransient's BSDF sampling.
+        reference_spp = 1 << 18
+        reference = nlos_rs.scenes.z_nlos_1corner(width=4, height=4, spp=reference_spp, temporal_bins=400,
+                                                  **{**CONFIGS[name], "nlos_hidden_geometry_sampling": False})
+    ours, theirs = replicates(d, spp, reference, reference_spp)
     res = agreement(features(ours), features(theirs))
     r, se = ratio_with_error(ours.sum(axis=tuple(range(1, ours.ndim))), theirs.sum(axis=tuple(range(1, theirs.ndim))))
     print(f"\n{name}: {res}, total ratio {r:.4f} ± {se:.4f}")
