@@ -92,12 +92,15 @@ def features(t):
 @pytest.mark.parametrize("case", list(CASES))
 def test_reuse_agrees_with_one_path_per_scan_point(case):
     variant = "rgb" if "rgb" in case else "mono"
+    # The five-vertex signal of one path per scan point is heavy-tailed (most renders of a pixel
+    # are zero): ten replicates' spread understates its variance, forty do not.
+    reps = 4 * REPS if "five-vertex" in case else REPS
     runs = {}
     for reuse, first_seed in ((False, 0), (True, 1000)):
         d = CASES[case](nlos_sample_reuse=reuse)
         spp = 1024 if "camera" in case else None
         runs[reuse] = np.array([nlos_rs.render(d, spp=spp, seed=first_seed + k, variant=variant, progress=False)[1].sum(-1)
-                                for k in range(REPS)])
+                                for k in range(reps)])
     assert runs[True].sum() > 0 and runs[True].shape == runs[False].shape
     a, b = features(runs[True]), features(runs[False])
     # Quantities below 1e-9 of the largest are not compared: with a camera the two estimators'
