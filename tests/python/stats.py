@@ -55,3 +55,20 @@ def ratio_with_error(a: np.ndarray, b: np.ndarray):
     r = ma / mb
     se = r * np.sqrt(a.var(ddof=1) / len(a) / ma**2 + b.var(ddof=1) / len(b) / mb**2)
     return r, se
+
+
+def capture_features(t: np.ndarray) -> np.ndarray:
+    """Replicates of a scan's transient (n, H, W, T) → each scan point's total and the capture's
+    time profile in groups of 20 bins."""
+    return np.concatenate([t.sum(-1).reshape(len(t), -1), rebin(t.sum((1, 2)), 20, -1)], axis=1)
+
+
+def assert_same_capture(a: np.ndarray, b: np.ndarray, label: str):
+    """Assert that two estimators' replicates (n, H, W, T) agree on every capture feature and on
+    the total (ratio within 4 standard errors); print and return the ratio and its error."""
+    res = agreement(capture_features(a), capture_features(b))
+    r, se = ratio_with_error(a.sum((1, 2, 3)), b.sum((1, 2, 3)))
+    print(f"\n{label} = {r:.4f} ± {se:.4f}; {res}")
+    assert res["agree"], res
+    assert abs(r - 1) < 4 * se + 1e-9, (r, se)
+    return r, se

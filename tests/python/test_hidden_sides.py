@@ -9,7 +9,7 @@ sampling, which has no facing test, is the independent reference.
 import numpy as np
 
 import nlos_rs
-from stats import agreement, ratio_with_error, rebin
+from stats import assert_same_capture
 
 REPS = 32
 
@@ -38,24 +38,12 @@ def ours(spp, **kw):
                      for k in range(REPS)])
 
 
-def features(t):
-    return np.concatenate([t.sum(-1).reshape(len(t), -1), rebin(t.sum((1, 2)), 20, -1)], axis=1)
-
-
-def check(hgs, bsdf, label):
-    res = agreement(features(hgs), features(bsdf))
-    r, se = ratio_with_error(hgs.sum((1, 2, 3)), bsdf.sum((1, 2, 3)))
-    print(f"\n{label}: HGS / BSDF = {r:.4f} ± {se:.4f}; {res}")
-    assert res["agree"], res
-    assert abs(r - 1) < 4 * se + 1e-9
-
-
 def test_back_of_a_two_sided_surface_is_lit():
     # The direct term (one hidden vertex) comes from the two-sided patch's back and the one-sided
     # patch's front.
     kw = dict(filter_bounces=2)
-    check(ours(4096, nlos_hidden_geometry_sampling=True, **kw),
-          ours(65536, nlos_hidden_geometry_sampling=False, **kw), "direct")
+    assert_same_capture(ours(4096, nlos_hidden_geometry_sampling=True, **kw),
+                        ours(65536, nlos_hidden_geometry_sampling=False, **kw), "direct: HGS / BSDF")
 
 
 def test_interreflections_behind_two_sided_surfaces():
@@ -63,6 +51,7 @@ def test_interreflections_behind_two_sided_surfaces():
     # bounces off the wall between hidden vertices, by design), with and without sample reuse.
     kw = dict(nlos_hidden_geometry_sampling_includes_relay_wall=True)
     bsdf = ours(65536, nlos_hidden_geometry_sampling=False, **kw)
-    check(ours(4096, nlos_hidden_geometry_sampling=True, **kw), bsdf, "all orders, sample reuse")
-    check(ours(4096, nlos_hidden_geometry_sampling=True, nlos_sample_reuse=False, **kw), bsdf,
-          "all orders, one path per scan point")
+    assert_same_capture(ours(4096, nlos_hidden_geometry_sampling=True, **kw), bsdf,
+                        "all orders, sample reuse: HGS / BSDF")
+    assert_same_capture(ours(4096, nlos_hidden_geometry_sampling=True, nlos_sample_reuse=False, **kw), bsdf,
+                        "all orders, one path per scan point: HGS / BSDF")
