@@ -59,10 +59,7 @@ impl NlosTracer<'_> {
         if rng.next_1d() < HGS_SHARE {
             return Some((hg.sample(self.scene, rng), true));
         }
-        let s = self.bsdf(x).sample(x.ns, wi, rng)?;
-        let (_, hit) = self
-            .scene
-            .intersect(x.offset_origin(s.wo), s.wo, f32::INFINITY)?;
+        let hit = self.bsdf_step(x, wi, rng)?.next;
         hg.covers(hit.shape).then_some((hit, false))
     }
 
