@@ -457,38 +457,29 @@ fn render_by(
                 let mut variance = vec![0.0f32; if plan.variance { plan.pixels * len } else { 0 }];
                 let mut sums = vec![[0.0f64; 3]; plan.pixels];
                 let mut samples = vec![plan.spp; plan.pixels];
+                let out = RunSums {
+                    transient: &mut transient,
+                    steady: &mut sums,
+                    squares: &mut variance,
+                };
                 if plan.shared {
-                    let out = RunSums {
-                        transient: &mut transient,
-                        steady: &mut sums,
-                        squares: &mut variance,
-                    };
                     job.trace_shared(0..plan.pixels, 0, plan.spp, out)?;
+                } else {
+                    job.trace_film(out, &mut samples)?;
                 }
-                let mut sqs = per_task(&mut variance, len, plan.pixels);
+                let sqs = per_task(&mut variance, len, plan.pixels);
                 transient
                     .par_chunks_mut(len)
                     .zip(steady.par_chunks_mut(c))
-                    .zip(samples.par_iter_mut())
-                    .zip(sqs.par_iter_mut())
-                    .zip(sums.par_iter_mut())
-                    .enumerate()
-                    .with_max_len(if plan.shared {
-                        usize::MAX
-                    } else {
-                        plan.tasks_per_job()
-                    })
-                    .try_for_each(|(pixel, ((((buf, st), n), sq), sum))| {
-                        if !plan.shared {
-                            *n = job.trace(pixel, 0, plan.spp, buf, sum, sq.as_deref_mut())?;
+                    .zip(samples.par_iter())
+                    .zip(sqs)
+                    .zip(sums.par_iter())
+                    .for_each(|((((buf, st), &n), sq), sum)| {
+                        if let Some(sq) = sq {
+                            variance_of_mean(buf, sq, n);
                         }
-                        if let Some(sq) = sq.as_deref_mut() {
-                            variance_of_mean(buf, sq, *n);
-                        }
-                        normalise(plan, buf, sum, st, *n);
-                        Ok(())
-                    })?;
-                drop(sqs);
+                        normalise(plan, buf, sum, st, n);
+                    });
                 let mut out = rendered(plan, transient, steady);
                 out.variance = plan.variance.then_some(variance);
                 out.samples = samples;
@@ -752,6 +743,33 @@ impl SampleValues {
     }
 }
 
+/// A run of one pixel's samples, [first, end), and where their sums go: its transient `buf`,
+/// steady `sum` and (with variance) each sample's squared values `squares`; the samples taken
+/// go to `taken` (fewer than asked with adaptive sampling).
+struct Task<'b> {
+    pixel: usize,
+    first: u64,
+    end: u64,
+    buf: &'b mut [f32],
+    sum: &'b mut [f64; 3],
+    squares: Option<&'b mut [f32]>,
+    taken: &'b mut u64,
+}
+
+/// A task being traced ([`Sampling::run`]): its stream, its next sample, the path in flight and
+/// what its samples keep (the fixed contributions, one sample's values for variance, one
+/// sample's total and the totals' first two moments for adaptive sampling).
+struct Lane<'b, P> {
+    task: Task<'b>,
+    rng: Sampler,
+    next: u64,
+    path: Option<P>,
+    fixed: Vec<Splat>,
+    values: Option<SampleValues>,
+    total: f64,
+    moments: (f64, f64),
+}
+
 /// A tracer's samples into sums: the per-(seed, pixel, block) streams, the splatter, progress and
 /// cancellation.
 struct Sampling<'a, T> {
@@ -835,61 +853,166 @@ impl<'a, T: Tracer> Sampling<'a, T> {
         total
     }
 
-    /// Samples [first, end) of `pixel`, accumulated into its transient `buf` and steady `sum`,
-    /// and each sample's squared values into `squares` if given. With adaptive sampling it stops
-    /// after the first block at which the pixel's total is known well enough
-    /// ([`Plan::precise_enough`]); it returns the samples taken.
-    fn trace(
-        &self,
-        pixel: usize,
-        first: u64,
-        end: u64,
-        buf: &mut [f32],
-        sum: &mut [f64; 3],
-        mut squares: Option<&mut [f32]>,
-    ) -> Result<u64> {
-        let mut values = squares.as_ref().map(|sq| SampleValues::new(sq.len()));
-        // Moments of the per-sample totals, for adaptive sampling.
-        let (mut t1, mut t2) = (0.0f64, 0.0f64);
-        let cancel = &self.monitor.cancel;
-        // The paths every sample adds unchanged, traced once.
-        let mut fixed = Vec::new();
-        self.tracer
-            .fixed_contributions(pixel, &mut |s| fixed.push(s));
-        let mut start = first;
-        while start < end {
-            if cancel.load(Ordering::Relaxed) {
-                return Err(NlosError::Interrupted);
-            }
-            let n = BLOCK.min(end - start);
-            let mut rng = self.stream(pixel as u64, start / BLOCK);
-            for k in start..start + n {
-                rng.start(k);
-                let mut total = 0.0f64;
-                for s in &fixed {
-                    total += self.deposit(s, buf, sum, values.as_mut(), 0);
+    /// Trace `tasks` (each a run of a pixel's samples), [`Tracer::IN_FLIGHT`] paths at a time:
+    /// each lane takes the next task, traces its samples in order from the pixel's own streams
+    /// and, when it is done, the next; the lanes' paths advance a bounce at a time in turn. Each
+    /// sample's contributions go to its task's sums as it makes them, so a pixel's sums are
+    /// those of its samples traced one after another.
+    fn run<'b>(&self, tasks: impl IntoIterator<Item = Task<'b>>) -> Result<()> {
+        let mut tasks = tasks.into_iter();
+        let mut lanes: Vec<Option<Lane<'b, T::Path>>> = (0..T::IN_FLIGHT).map(|_| None).collect();
+        loop {
+            let mut busy = false;
+            for slot in &mut lanes {
+                if slot.is_none() {
+                    *slot = tasks.next().map(|task| self.lane(task));
                 }
-                self.tracer.trace(pixel, &mut rng, &mut |s: Splat| {
-                    total += self.deposit(&s, buf, sum, values.as_mut(), 0);
+                let Some(lane) = slot else { continue };
+                busy = true;
+                if lane.path.is_none() && !self.start_sample(lane)? {
+                    *slot = None;
+                    continue;
+                }
+                let Lane {
+                    task,
+                    rng,
+                    path: Some(p),
+                    values,
+                    total,
+                    ..
+                } = lane
+                else {
+                    continue;
+                };
+                let going = self.tracer.bounce(p, rng, &mut |s: Splat| {
+                    *total += self.deposit(&s, task.buf, task.sum, values.as_mut(), 0);
                 });
-                if let (Some(v), Some(sq)) = (values.as_mut(), squares.as_deref_mut()) {
-                    v.finish(sq);
-                }
-                t1 += total;
-                t2 += total * total;
-                if cancel.load(Ordering::Relaxed) {
-                    return Err(NlosError::Interrupted);
+                if !going && self.finish_sample(lane)? {
+                    *slot = None;
                 }
             }
-            self.monitor.done.fetch_add(n, Ordering::Relaxed);
-            start += n;
-            if self.plan.precise_enough(start - first, t1, t2) {
-                // The samples not taken count as done for progress.
-                self.monitor.done.fetch_add(end - start, Ordering::Relaxed);
-                break;
+            if !busy {
+                return Ok(());
             }
         }
-        Ok(start - first)
+    }
+
+    /// A lane starting `task`: the paths every sample of its pixel adds unchanged, traced once,
+    /// and (with variance) a buffer for each sample's values.
+    fn lane<'b>(&self, task: Task<'b>) -> Lane<'b, T::Path> {
+        let mut fixed = Vec::new();
+        self.tracer
+            .fixed_contributions(task.pixel, &mut |s| fixed.push(s));
+        Lane {
+            rng: self.stream(task.pixel as u64, task.first / BLOCK),
+            next: task.first,
+            path: None,
+            fixed,
+            values: task.squares.as_ref().map(|sq| SampleValues::new(sq.len())),
+            total: 0.0,
+            moments: (0.0, 0.0),
+            task,
+        }
+    }
+
+    /// Start the lane's next sample (a block's first: its stream, after a check for
+    /// cancellation) with the fixed contributions; false if its task has no samples left.
+    fn start_sample(&self, lane: &mut Lane<'_, T::Path>) -> Result<bool> {
+        let (k, task) = (lane.next, &mut lane.task);
+        if k == task.end {
+            return Ok(false);
+        }
+        if (k - task.first).is_multiple_of(BLOCK) {
+            if self.monitor.cancel.load(Ordering::Relaxed) {
+                return Err(NlosError::Interrupted);
+            }
+            if k > task.first {
+                lane.rng = self.stream(task.pixel as u64, k / BLOCK);
+            }
+        }
+        lane.rng.start(k);
+        lane.total = 0.0;
+        for s in &lane.fixed {
+            lane.total += self.deposit(s, task.buf, task.sum, lane.values.as_mut(), 0);
+        }
+        lane.path = Some(self.tracer.begin(task.pixel, &mut lane.rng));
+        Ok(true)
+    }
+
+    /// The lane's sample has ended: its squared values and total are kept, and at the end of a
+    /// block progress is counted; true once the task is done (all its samples, or with
+    /// adaptive sampling those of the first block at which its total is known well enough,
+    /// [`Plan::precise_enough`]).
+    fn finish_sample(&self, lane: &mut Lane<'_, T::Path>) -> Result<bool> {
+        let task = &mut lane.task;
+        lane.path = None;
+        if let (Some(v), Some(sq)) = (lane.values.as_mut(), task.squares.as_deref_mut()) {
+            v.finish(sq);
+        }
+        lane.moments.0 += lane.total;
+        lane.moments.1 += lane.total * lane.total;
+        if self.monitor.cancel.load(Ordering::Relaxed) {
+            return Err(NlosError::Interrupted);
+        }
+        lane.next += 1;
+        let taken = lane.next - task.first;
+        if !(taken.is_multiple_of(BLOCK) || lane.next == task.end) {
+            return Ok(false);
+        }
+        self.monitor
+            .done
+            .fetch_add(taken - (taken - 1) / BLOCK * BLOCK, Ordering::Relaxed);
+        *task.taken = taken;
+        if lane.next == task.end {
+            return Ok(true);
+        }
+        let precise = self
+            .plan
+            .precise_enough(taken, lane.moments.0, lane.moments.1);
+        if precise {
+            // The samples not taken count as done for progress.
+            self.monitor
+                .done
+                .fetch_add(task.end - lane.next, Ordering::Relaxed);
+        }
+        Ok(precise)
+    }
+
+    /// Tasks per parallel job: [`Plan::tasks_per_job`], and at least a task per path in flight.
+    fn group(&self) -> usize {
+        self.plan.tasks_per_job().max(T::IN_FLIGHT)
+    }
+
+    /// Every sample of every pixel into `out` (a render whose pixels trace their own paths),
+    /// groups of pixels in parallel; each pixel's samples taken into `samples`.
+    fn trace_film(&self, out: RunSums, samples: &mut [u64]) -> Result<()> {
+        let (len, g) = (self.plan.pixel_len, self.group());
+        let mut sqs = per_task(out.squares, len, samples.len());
+        out.transient
+            .par_chunks_mut(len * g)
+            .zip(out.steady.par_chunks_mut(g))
+            .zip(sqs.par_chunks_mut(g))
+            .zip(samples.par_chunks_mut(g))
+            .enumerate()
+            .with_max_len(1)
+            .try_for_each(|(i, (((bufs, sums), sqs), taken))| {
+                self.run(
+                    bufs.chunks_mut(len)
+                        .zip(sums)
+                        .zip(sqs)
+                        .zip(taken)
+                        .enumerate()
+                        .map(|(j, (((buf, sum), sq), taken))| Task {
+                            pixel: i * g + j,
+                            first: 0,
+                            end: self.plan.spp,
+                            buf,
+                            sum,
+                            squares: sq.as_deref_mut(),
+                            taken,
+                        }),
+                )
+            })
     }
 
     /// Light samples [first, end) of a shared render, connected to the pixels `pixels`. Pass by
@@ -1100,18 +1223,40 @@ impl<'a, T: Tracer> Sampling<'a, T> {
         let (first_pixel, first_chunk) = (part.pixels.start, part.chunks.start);
         let tasks = part.steady.len() / 3;
         let mut squares = per_task(&mut part.squares, len.max(1), tasks);
+        let g = self.group();
         part.transient
-            .par_chunks_mut(len.max(1))
-            .zip(part.steady.par_chunks_mut(3))
-            .zip(squares.par_iter_mut())
+            .par_chunks_mut(len.max(1) * g)
+            .zip(part.steady.par_chunks_mut(3 * g))
+            .zip(squares.par_chunks_mut(g))
             .enumerate()
-            .with_max_len(self.plan.tasks_per_job())
-            .try_for_each(|(task, ((buf, st), sq))| {
-                let pixel = first_pixel + task / k as usize;
-                let (first, end) = self.plan.chunk_samples(first_chunk + task as u64 % k);
-                let mut sum = [0.0f64; 3];
-                self.trace(pixel, first, end, buf, &mut sum, sq.as_deref_mut())?;
-                st.copy_from_slice(&sum);
+            .with_max_len(1)
+            .try_for_each(|(i, ((bufs, sts), sqs))| {
+                let mut sums = vec![[0.0f64; 3]; sqs.len()];
+                let mut taken = vec![0; sqs.len()];
+                self.run(
+                    bufs.chunks_mut(len.max(1))
+                        .zip(&mut sums)
+                        .zip(sqs)
+                        .zip(&mut taken)
+                        .enumerate()
+                        .map(|(j, (((buf, sum), sq), taken))| {
+                            let task = i * g + j;
+                            let (first, end) =
+                                self.plan.chunk_samples(first_chunk + task as u64 % k);
+                            Task {
+                                pixel: first_pixel + task / k as usize,
+                                first,
+                                end,
+                                buf,
+                                sum,
+                                squares: sq.as_deref_mut(),
+                                taken,
+                            }
+                        }),
+                )?;
+                for (st, sum) in sts.chunks_mut(3).zip(&sums) {
+                    st.copy_from_slice(sum);
+                }
                 Ok(())
             })?;
         drop(squares);

@@ -79,8 +79,23 @@ impl Vertex {
 
 /// A path sampler for one pixel of a film.
 pub trait Tracer: Sync {
-    /// Trace one path sample of `pixel` (row-major), passing every contribution to `out`.
-    fn trace(&self, pixel: usize, rng: &mut Sampler, out: &mut impl FnMut(Splat));
+    /// A path sample between [`Self::bounce`]s.
+    type Path;
+
+    /// Paths the render loop keeps in flight per thread: with more than one it advances them a
+    /// bounce at a time in turn, each from its own stream, so that one path's work fills the
+    /// cycles another waits on (a bounce's ray and shading depend on the one before, and one
+    /// path alone leaves the core idle between them). Each pixel's samples are still drawn and
+    /// added in sample order: the count changes no bits.
+    const IN_FLIGHT: usize = 1;
+
+    /// Start a path sample of `pixel` (row-major).
+    fn begin(&self, pixel: usize, rng: &mut Sampler) -> Self::Path;
+
+    /// Advance `path` by one bounce (or, for a tracer with one path in flight, to its end),
+    /// passing every contribution to `out`; false once the path has ended.
+    fn bounce(&self, path: &mut Self::Path, rng: &mut Sampler, out: &mut impl FnMut(Splat))
+    -> bool;
 
     /// A light subpath shared by all pixels ([`sample_reuse`]); `()` for a tracer that never
     /// shares (`transient_path`).

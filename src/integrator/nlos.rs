@@ -394,6 +394,17 @@ impl<'a> NlosTracer<'a> {
 
 impl Tracer for NlosTracer<'_> {
     type Light = super::sample_reuse::LightPath;
+    /// The pixel: a path is traced in one go.
+    type Path = usize;
+
+    fn begin(&self, pixel: usize, _rng: &mut Sampler) -> usize {
+        pixel
+    }
+
+    fn bounce(&self, pixel: &mut usize, rng: &mut Sampler, out: &mut impl FnMut(Splat)) -> bool {
+        NlosTracer::trace(self, *pixel, rng, out);
+        false
+    }
 
     fn trace_light(&self, rng: &mut Sampler) -> Option<Self::Light> {
         NlosTracer::trace_light(self, rng)
@@ -425,7 +436,9 @@ impl Tracer for NlosTracer<'_> {
     ) {
         NlosTracer::connect_light(self, pixel, x, light, out)
     }
+}
 
+impl NlosTracer<'_> {
     /// Trace one path from the scan point of `pixel` (mitransient-model §3.2–3.3).
     fn trace(&self, pixel: usize, rng: &mut Sampler, out: &mut impl FnMut(Splat)) {
         let st = self.settings;

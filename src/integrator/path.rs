@@ -183,85 +183,122 @@ impl<'a> PathTracer<'a> {
     }
 }
 
+/// A camera path between bounces: the ray to trace next and what the path carries.
+pub struct CameraPath {
+    ray: Ray,
+    beta: Spectrum,
+    opl: f64,
+    /// Index of refraction of the medium the path is in: light is slower by it.
+    eta: f32,
+    /// The previous vertex and its BSDF sampling density (`None` after a delta reflection,
+    /// which no light sample can find), for MIS on emission hits.
+    prev: Option<(Vec3A, Option<f32>)>,
+    depth: u32,
+}
+
 impl Tracer for PathTracer<'_> {
     type Light = ();
+    type Path = CameraPath;
+    const IN_FLIGHT: usize = 2;
 
-    /// Trace one camera path through pixel `pixel` (row-major), emitting its contributions.
-    fn trace(&self, pixel: usize, rng: &mut Sampler, out: &mut impl FnMut(Splat)) {
-        let st = self.settings;
-        let (width, height) = (self.width, self.height);
-        let mut ray = self.camera.pixel_ray(pixel, width, height, rng.next_2d());
-        let mut beta = Spectrum::ONE;
-        let mut opl = 0.0f64;
-        // Index of refraction of the medium the path is in: light is slower by it.
-        let mut eta = 1.0f32;
-        // The previous vertex and its BSDF sampling density (`None` after a delta reflection,
-        // which no light sample can find), for MIS on emission hits.
-        let mut prev: Option<(Vec3A, Option<f32>)> = None;
-        let mut depth: u32 = 0;
-        while let Some(hit) = self.scene.accel.intersect(ray.o, ray.d, ray.tmin, ray.tmax) {
-            let it = self.scene.interaction(ray.o, ray.d, &hit);
-            // The segment just travelled (its length as `length` computes it; reused by MIS).
-            let from = prev.map_or(ray.o, |p| p.0);
-            let to_it = it.p - from;
-            let r2 = to_it.length_squared();
-            let r = r2.sqrt();
-            let seg = r as f64;
-            opl += match depth {
-                0 if st.camera_unwarp => 0.0,
-                0 if st.opl_from_near_clip => seg - ray.tmin as f64,
-                _ => seg * eta as f64,
-            };
-            let wi = -ray.d;
-            // ---- Emission found by the camera ray or by BSDF sampling
-            if let Some(k) = self.shape_emitter[it.shape as usize]
-                && let Emitter::Area {
-                    sampler,
-                    radiance,
-                    falloff,
-                } = &self.emitters[k]
-                && it.ns.dot(wi) > 0.0
-                && !(depth == 0 && st.discard_direct_light)
-                && let Some(le) = emitted(*radiance, *falloff, it.ns.dot(wi))
-            {
-                let w = match prev {
-                    // `from` is the previous vertex here, so `to_it` is the light sample's y − x.
-                    Some((_, Some(bsdf_pdf))) => {
-                        mis(bsdf_pdf, self.light_pdf(sampler, to_it, r2, r, it.ng))
-                    }
-                    _ => 1.0,
-                };
-                out(Splat {
-                    slot: 0,
-                    opl,
-                    value: beta * le * w,
-                });
-            }
-            if depth.saturating_add(1) >= st.max_depth {
-                break;
-            }
-            let bsdf = &self.bsdfs[it.shape as usize];
-            // ---- Emitter sampling (not at a delta vertex: nothing to connect to)
-            if !self.delta[it.shape as usize] {
-                self.sample_light(&Vertex::new(it, wi, beta, opl, eta), bsdf, rng, out);
-            }
-            // ---- BSDF sampling
-            let Some(s) = bsdf.sample(it.ns, wi, rng) else {
-                break;
-            };
-            beta *= s.weight;
-            eta *= s.eta;
-            if !russian_roulette(&mut beta, eta, depth, st.rr_depth, rng) {
-                break;
-            }
-            prev = Some((it.p, (!s.delta).then_some(s.pdf)));
-            ray = Ray {
-                o: it.offset_origin(s.wo),
-                d: s.wo,
-                tmin: 0.0,
-                tmax: f32::INFINITY,
-            };
-            depth += 1;
+    /// A camera path through pixel `pixel` (row-major), before its first bounce.
+    #[inline]
+    fn begin(&self, pixel: usize, rng: &mut Sampler) -> CameraPath {
+        CameraPath {
+            ray: self
+                .camera
+                .pixel_ray(pixel, self.width, self.height, rng.next_2d()),
+            beta: Spectrum::ONE,
+            opl: 0.0,
+            eta: 1.0,
+            prev: None,
+            depth: 0,
         }
+    }
+
+    /// Trace the path's ray and shade what it hits: emission found, a light sample, the next
+    /// direction.
+    #[inline]
+    fn bounce(
+        &self,
+        path: &mut CameraPath,
+        rng: &mut Sampler,
+        out: &mut impl FnMut(Splat),
+    ) -> bool {
+        let st = self.settings;
+        let CameraPath {
+            ray,
+            beta,
+            opl,
+            eta,
+            prev,
+            depth,
+        } = path;
+        let Some(hit) = self.scene.accel.intersect(ray.o, ray.d, ray.tmin, ray.tmax) else {
+            return false;
+        };
+        let it = self.scene.interaction(ray.o, ray.d, &hit);
+        // The segment just travelled (its length as `length` computes it; reused by MIS).
+        let from = prev.map_or(ray.o, |p| p.0);
+        let to_it = it.p - from;
+        let r2 = to_it.length_squared();
+        let r = r2.sqrt();
+        let seg = r as f64;
+        *opl += match *depth {
+            0 if st.camera_unwarp => 0.0,
+            0 if st.opl_from_near_clip => seg - ray.tmin as f64,
+            _ => seg * *eta as f64,
+        };
+        let wi = -ray.d;
+        // ---- Emission found by the camera ray or by BSDF sampling
+        if let Some(k) = self.shape_emitter[it.shape as usize]
+            && let Emitter::Area {
+                sampler,
+                radiance,
+                falloff,
+            } = &self.emitters[k]
+            && it.ns.dot(wi) > 0.0
+            && !(*depth == 0 && st.discard_direct_light)
+            && let Some(le) = emitted(*radiance, *falloff, it.ns.dot(wi))
+        {
+            let w = match *prev {
+                // `from` is the previous vertex here, so `to_it` is the light sample's y − x.
+                Some((_, Some(bsdf_pdf))) => {
+                    mis(bsdf_pdf, self.light_pdf(sampler, to_it, r2, r, it.ng))
+                }
+                _ => 1.0,
+            };
+            out(Splat {
+                slot: 0,
+                opl: *opl,
+                value: *beta * le * w,
+            });
+        }
+        if depth.saturating_add(1) >= st.max_depth {
+            return false;
+        }
+        let bsdf = &self.bsdfs[it.shape as usize];
+        // ---- Emitter sampling (not at a delta vertex: nothing to connect to)
+        if !self.delta[it.shape as usize] {
+            self.sample_light(&Vertex::new(it, wi, *beta, *opl, *eta), bsdf, rng, out);
+        }
+        // ---- BSDF sampling
+        let Some(s) = bsdf.sample(it.ns, wi, rng) else {
+            return false;
+        };
+        *beta *= s.weight;
+        *eta *= s.eta;
+        if !russian_roulette(beta, *eta, *depth, st.rr_depth, rng) {
+            return false;
+        }
+        *prev = Some((it.p, (!s.delta).then_some(s.pdf)));
+        *ray = Ray {
+            o: it.offset_origin(s.wo),
+            d: s.wo,
+            tmin: 0.0,
+            tmax: f32::INFINITY,
+        };
+        *depth += 1;
+        true
     }
 }

@@ -137,6 +137,7 @@ impl Scene {
     }
 
     /// The surface interaction of a hit.
+    #[inline(always)]
     pub fn interaction(&self, o: Vec3A, d: Vec3A, hit: &Hit) -> Interaction {
         let i = hit.prim as usize;
         let (p, ng) = self.prims[i].surface(o, d, hit);
