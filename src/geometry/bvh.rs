@@ -763,7 +763,8 @@ fn subtree(part: &mut [Item], start: usize, depth: usize, deepest: usize) -> Vec
         return subtree_serial(part, start, depth, deepest);
     }
     let (bounds, Some(half)) = divide(part, depth < deepest) else {
-        unreachable!("a part of {PARALLEL_PART} or more primitives is no leaf")
+        // (A part this large always splits; were it a leaf, the serial build makes it one.)
+        return subtree_serial(part, start, depth, deepest);
     };
     let (left, right) = part.split_at_mut(half);
     let (l, r) = rayon::join(
