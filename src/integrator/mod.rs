@@ -113,7 +113,7 @@ pub trait Tracer: Sync {
 
     /// The contributions every sample (a path, or a light sample) adds to `pixel` unchanged,
     /// passed to `out` once: the paths that take no randomness when the pixel's first vertex
-    /// takes none. [`Self::trace`] and [`Self::connect_light`] leave out what this passes.
+    /// takes none. [`Self::bounce`] and [`Self::connect_light`] leave out what this passes.
     fn fixed_contributions(&self, _pixel: usize, _out: &mut impl FnMut(Splat)) {}
 
     /// The first vertex of `pixel` for a tile of light samples: a camera's jittered one, drawn

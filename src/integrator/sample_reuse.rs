@@ -3,9 +3,9 @@
 //! shadow ray. The first vertex is drawn over the hidden geometry's area, as hidden-geometry
 //! sampling draws it from the scan point's side, and later ones from the mixture of
 //! [`super::hidden_mixture`] (from the light's end), each weighted by its area density, so each
-//! scan point receives a path measurement contribution over its density as with
-//! [`super::NlosTracer::trace`]: the estimate is unbiased and its variance per sample is that of
-//! one path, while a contribution costs one shadow ray instead of a path. The price is
+//! scan point receives a path measurement contribution over its density as with a path traced
+//! per scan point (`NlosTracer::trace`): the estimate is unbiased and its variance per sample is
+//! that of one path, while a contribution costs one shadow ray instead of a path. The price is
 //! correlation: all scan points of a render see the same hidden points, so their noise is
 //! correlated (an image of N samples shows N hidden points' "speckle" in every pixel, not
 //! independent noise per pixel).
