@@ -63,6 +63,10 @@ CASES = {
     "two_corners": lambda: (scenes.t_nlos_2corner("small", width=4, height=4, spp=128, temporal_bins=200,
                                                   bin_width_opl=0.04), {}),
     "los_cornell": lambda: (scenes.cornell_box(width=8, height=6, spp=32, temporal_bins=100), {"variant": "rgb"}),
+    # 64 pixels or more: each pixel's samples in one task, two camera paths in flight per thread.
+    "los_cornell_film": lambda: (scenes.cornell_box(width=10, height=8, spp=48, temporal_bins=100), {}),
+    "los_cornell_adaptive": lambda: (scenes.cornell_box(width=9, height=8, spp=2048, temporal_bins=50),
+                                     {"target_rel_error": 0.05}),
     "los_cornell_unwarp_kde": lambda: (
         {**scenes.cornell_box(width=6, height=6, spp=32, temporal_bins=100),
          "integrator": {"type": "transient_path", "max_depth": 5, "camera_unwarp": True}},
