@@ -2,7 +2,8 @@
 //! [`Tracer`] and accumulated into the transient film through its splatter (mitransient-model
 //! §3.8). Each pixel is rendered by one task from per-(seed, pixel, block) random streams (a film
 //! of few pixels splits a pixel's blocks into chunks, summed in chunk order), so results are
-//! bit-identical whatever the thread count. Progress and cancellation go through
+//! bit-identical whatever the thread count; a task keeps [`Tracer::IN_FLIGHT`] paths in flight,
+//! each pixel's in sample order ([`Sampling::run`]). Progress and cancellation go through
 //! atomics so that a caller (the Python binding) can poll them; cancellation is checked after
 //! every sample. Work runs on a thread pool made for the render (never rayon's global pool, so a
 //! forked process can render too), and the output's size is checked before it is allocated.
