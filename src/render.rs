@@ -1122,9 +1122,13 @@ impl<'a, T: Tracer> Sampling<'a, T> {
                                 let x = self
                                     .tracer
                                     .pixel_vertex(pixel, pixel_rng, &mut |s| own.push(s));
+                                // The steady sum is kept here while the pixel connects to the
+                                // tile: the sums of pixels in neighbouring groups share cache
+                                // lines, and another thread writes there (same additions, in order).
+                                let mut steady = *sum;
                                 for light in tile {
                                     for s in fixed[j].iter().chain(own.iter()) {
-                                        self.deposit(s, buf, sum, values.as_mut(), 0);
+                                        self.deposit(s, buf, &mut steady, values.as_mut(), 0);
                                     }
                                     if let Some(x) = &x {
                                         self.tracer.connect_light(
@@ -1132,7 +1136,13 @@ impl<'a, T: Tracer> Sampling<'a, T> {
                                             x,
                                             light.as_ref(),
                                             &mut |s| {
-                                                self.deposit(&s, buf, sum, values.as_mut(), 0);
+                                                self.deposit(
+                                                    &s,
+                                                    buf,
+                                                    &mut steady,
+                                                    values.as_mut(),
+                                                    0,
+                                                );
                                             },
                                         );
                                     }
@@ -1142,6 +1152,7 @@ impl<'a, T: Tracer> Sampling<'a, T> {
                                         v.finish(sq);
                                     }
                                 }
+                                *sum = steady;
                             }
                             if cancel.load(Ordering::Relaxed) {
                                 return Err(NlosError::Interrupted);
