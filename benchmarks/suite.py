@@ -17,9 +17,11 @@ flat letter at 1 m, unbounded depth, albedo 0.7, and a 200k-triangle bumpy spher
 confocal each); the T behind two
 corners (five-vertex signal); Mitsuba's own mi.cornell_box() made transient (line of sight); a
 1×1 capture; rgb; mitransient's example files nlos-z-simple.xml (a perspective camera),
-nlos-z-room.xml (the Z among walls) and cornell-box/cbox_diffuse.xml (line of sight, 64×64), and a
-confocal capture tal wrote (tests/data/tal021, unbounded depth). mitransient's time is its render
-call with dr.eval + dr.sync_thread.
+nlos-z-room.xml (the Z among walls) and cornell-box/cbox_diffuse.xml (line of sight, 64×64), a
+confocal capture tal wrote (tests/data/tal021, unbounded depth), and the Z's confocal capture and
+the 200k-triangle sphere with hidden-geometry sampling off (mitransient's plugin default; tal
+writes it on): BSDF sampling from the relay wall, whose rays mostly miss the hidden object.
+mitransient's time is its render call with dr.eval + dr.sync_thread.
 """
 
 from __future__ import annotations
@@ -86,6 +88,10 @@ def workloads(quick: bool):
                   "to_world": T().translate([0.0, 0.0, 1.0]), "bsdf": {"type": "diffuse", "reflectance": 0.8}}
         return d
 
+    def bsdf_sampling(d):
+        d["integrator"]["nlos_hidden_geometry_sampling"] = False
+        return d
+
     def cornell():
         from nlos_rs.mitsuba_compat import import_mitransient
 
@@ -120,6 +126,9 @@ def workloads(quick: bool):
         "mitransient_cbox_file": (lambda: (str(data / "mitransient" / "cornell-box" / "cbox_diffuse.xml"),
                                            max(1, 256 // div), {"res": 64}), "mono"),
         "tal_confocal_file": (lambda: (str(data / "tal021" / "confocal.xml"), max(1, (1 << 19) // div)), "mono"),
+        # Hidden-geometry sampling off, as mitransient's plugin defaults (tal writes it on).
+        "z_confocal_bsdf": (lambda: bsdf_sampling(z(4096, width=64, height=64, capture_type="confocal")), "mono"),
+        "mesh_200k_bsdf": (lambda: bsdf_sampling(big()), "mono"),
     }
 
 
