@@ -521,7 +521,8 @@ impl Accel {
         self.traverse::<true>(&ray, &mut tmax, |leaf, tmax| {
             for p in &self.packs[leaf.packs.0 as usize..leaf.packs.1 as usize] {
                 let sh = shear.get_or_insert_with(|| Shear4::new(o, d));
-                let (hit, redo, [t, e1, e2, inv_det]) = ray.triangles(sh, p, *tmax);
+                let (hit, redo, lanes4) = ray.triangles(sh, p, *tmax);
+                let [t, e1, e2, inv_det] = lanes4.map(|v| v.to_array());
                 // The lanes hit or to redo, in order, a candidate accepted only if it shortens
                 // the ray.
                 let mut lanes = hit | redo;
@@ -661,6 +662,9 @@ impl Accel {
                     let node = &self.nodes[code as usize];
                     let (mut mask, near) = ray.enter(node, *tmax);
                     if mask != 0 {
+                        // Lanes read from an array (a `Vec4` indexed by a variable lane compiles
+                        // to a jump table: an indirect branch per entered child).
+                        let near = near.to_array();
                         // Go on with the nearest entered child; push the others farthest first.
                         let mut entered = [(0u32, 0f32); 4];
                         let mut n = 0;
