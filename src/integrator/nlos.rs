@@ -392,18 +392,32 @@ impl<'a> NlosTracer<'a> {
     }
 }
 
+/// A `transient_nlos_path` path between bounces: its pixel, the vertex it is at (`None` once the
+/// pixel sees nothing) and the loop depth.
+pub struct NlosPath {
+    pixel: usize,
+    at: Option<Vertex>,
+    depth: u32,
+}
+
 impl Tracer for NlosTracer<'_> {
     type Light = super::sample_reuse::LightPath;
-    /// The pixel: a path is traced in one go.
-    type Path = usize;
+    type Path = NlosPath;
+    const IN_FLIGHT: usize = 2;
 
-    fn begin(&self, pixel: usize, _rng: &mut Sampler) -> usize {
-        pixel
+    /// A path from the scan point of `pixel` (or what the camera's ray through it sees).
+    #[inline]
+    fn begin(&self, pixel: usize, rng: &mut Sampler) -> NlosPath {
+        NlosPath {
+            pixel,
+            at: self.first_vertex(pixel, rng),
+            depth: 0,
+        }
     }
 
-    fn bounce(&self, pixel: &mut usize, rng: &mut Sampler, out: &mut impl FnMut(Splat)) -> bool {
-        NlosTracer::trace(self, *pixel, rng, out);
-        false
+    #[inline]
+    fn bounce(&self, path: &mut NlosPath, rng: &mut Sampler, out: &mut impl FnMut(Splat)) -> bool {
+        NlosTracer::bounce(self, path, rng, out)
     }
 
     fn trace_light(&self, rng: &mut Sampler) -> Option<Self::Light> {
@@ -439,73 +453,67 @@ impl Tracer for NlosTracer<'_> {
 }
 
 impl NlosTracer<'_> {
-    /// Trace one path from the scan point of `pixel` (mitransient-model §3.2–3.3).
-    fn trace(&self, pixel: usize, rng: &mut Sampler, out: &mut impl FnMut(Splat)) {
+    /// One bounce of a path (mitransient-model §3.2–3.3): emitter sampling at its vertex, then the
+    /// next vertex; false once the path has ended.
+    #[inline]
+    fn bounce(&self, path: &mut NlosPath, rng: &mut Sampler, out: &mut impl FnMut(Splat)) -> bool {
         let st = self.settings;
-        let Some(Vertex {
-            mut it,
-            mut wi,
-            mut beta,
-            mut opl,
-            mut eta,
-        }) = self.first_vertex(pixel, rng)
-        else {
-            return;
+        let (pixel, depth) = (path.pixel, path.depth);
+        let Some(v) = &mut path.at else {
+            return false;
         };
-        let mut depth: u32 = 0;
         // Contribution depth of a vertex at loop depth d: d + 2 with laser sampling (the spot is
         // an extra vertex), d with NEE (mitransient-model §2, filter_bounces).
         let offset = if st.laser_sampling { 2 } else { 0 };
-        loop {
-            if depth.saturating_add(1) >= st.max_depth {
-                break;
-            }
-            // A delta (mirror-like) BSDF cannot be connected to: no emitter sampling at an
-            // all-delta vertex, and where some component is delta the path goes on by sampling the
-            // BSDF rather than towards hidden geometry (which would miss that component).
-            let (all_delta, some_delta) = self.delta[it.shape as usize];
-            // ---- Emitter sampling (at a fixed scan point, fixed_contributions passes it once)
-            if st.keep(depth + offset) && !all_delta && !(depth == 0 && self.spot_paths_fixed()) {
-                self.emitter_sampling(pixel, &Vertex::new(it, wi, beta, opl, eta), out);
-            }
-            // No later vertex can pass filter_bounces: stop early (changes no result).
-            if st.filter_depth.is_some_and(|f| depth + 1 + offset > f) {
-                break;
-            }
-            // ---- Direction sampling: hidden geometry (plain or HGRS) or the BSDF
-            let mut hidden = self
-                .hidden
-                .as_ref()
-                .filter(|_| !some_delta && st.hgs_max_depth.is_none_or(|m| depth < m));
-            if hidden.is_some() && st.hgs_rroulette {
-                // One of the two techniques at random; each is unbiased on its own, so the
-                // mixture is too (mitransient also divides by 1/2 here and doubles the result).
-                hidden = hidden.filter(|_| rng.next_1d() < 0.5);
-            }
-            let step = match (hidden, st.hgrs) {
-                (Some(hg), Some(h)) => {
-                    hgrs::sample(h, rng, |rng| self.hidden_candidate(hg, &it, wi, rng))
-                }
-                // Beyond the first vertex (on the relay wall, whence the hidden scene is far and
-                // small) the mixture with BSDF sampling, unless the technique roulette chose.
-                (Some(hg), None) if depth > 0 && !st.hgs_rroulette => {
-                    self.mixture_step(hg, &it, wi, false, rng)
-                }
-                (Some(hg), None) => self.hidden_candidate(hg, &it, wi, rng),
-                (None, _) => self.bsdf_step(&it, wi, rng),
-            };
-            let Some(step) = step else { break };
-            beta *= step.weight;
-            eta *= step.eta;
-            // ---- Russian roulette (mitransient-model §3.3 step 4)
-            if !russian_roulette(&mut beta, eta, depth, st.rr_depth, rng) {
-                break;
-            }
-            wi = (it.p - step.next.p).normalize();
-            // Light is slower by η inside a refracting medium.
-            opl += (step.dist * eta) as f64;
-            it = step.next;
-            depth += 1;
+        if depth.saturating_add(1) >= st.max_depth {
+            return false;
         }
+        // A delta (mirror-like) BSDF cannot be connected to: no emitter sampling at an
+        // all-delta vertex, and where some component is delta the path goes on by sampling the
+        // BSDF rather than towards hidden geometry (which would miss that component).
+        let (all_delta, some_delta) = self.delta[v.it.shape as usize];
+        // ---- Emitter sampling (at a fixed scan point, fixed_contributions passes it once)
+        if st.keep(depth + offset) && !all_delta && !(depth == 0 && self.spot_paths_fixed()) {
+            self.emitter_sampling(pixel, v, out);
+        }
+        // No later vertex can pass filter_bounces: stop early (changes no result).
+        if st.filter_depth.is_some_and(|f| depth + 1 + offset > f) {
+            return false;
+        }
+        // ---- Direction sampling: hidden geometry (plain or HGRS) or the BSDF
+        let mut hidden = self
+            .hidden
+            .as_ref()
+            .filter(|_| !some_delta && st.hgs_max_depth.is_none_or(|m| depth < m));
+        if hidden.is_some() && st.hgs_rroulette {
+            // One of the two techniques at random; each is unbiased on its own, so the
+            // mixture is too (mitransient also divides by 1/2 here and doubles the result).
+            hidden = hidden.filter(|_| rng.next_1d() < 0.5);
+        }
+        let step = match (hidden, st.hgrs) {
+            (Some(hg), Some(h)) => {
+                hgrs::sample(h, rng, |rng| self.hidden_candidate(hg, &v.it, v.wi, rng))
+            }
+            // Beyond the first vertex (on the relay wall, whence the hidden scene is far and
+            // small) the mixture with BSDF sampling, unless the technique roulette chose.
+            (Some(hg), None) if depth > 0 && !st.hgs_rroulette => {
+                self.mixture_step(hg, &v.it, v.wi, false, rng)
+            }
+            (Some(hg), None) => self.hidden_candidate(hg, &v.it, v.wi, rng),
+            (None, _) => self.bsdf_step(&v.it, v.wi, rng),
+        };
+        let Some(step) = step else { return false };
+        v.beta *= step.weight;
+        v.eta *= step.eta;
+        // ---- Russian roulette (mitransient-model §3.3 step 4)
+        if !russian_roulette(&mut v.beta, v.eta, depth, st.rr_depth, rng) {
+            return false;
+        }
+        v.wi = (v.it.p - step.next.p).normalize();
+        // Light is slower by η inside a refracting medium.
+        v.opl += (step.dist * v.eta) as f64;
+        v.it = step.next;
+        path.depth += 1;
+        true
     }
 }
