@@ -104,6 +104,10 @@ fn near_axis_plane(d: Vec3A) -> bool {
 /// A child code with this bit set is a leaf (the rest is its index in [`Accel::leaves`]); without
 /// it, a node index.
 const LEAF: u32 = 1 << 31;
+/// A leaf code with this bit set too is a leaf of one triangle pack and nothing else (most are):
+/// the rest is the pack's index, so the traversal reads no [`Leaf`] for it. (Indices stay below
+/// 2³⁰: that many primitives would take 64 GiB before any tree is built.)
+const ONE_PACK: u32 = 1 << 30;
 /// An unused child slot (its box is empty, so no ray or segment enters it).
 const EMPTY: u32 = u32::MAX;
 /// At most this many primitives per leaf (one pack of triangles): the binary tree is split down
@@ -425,10 +429,15 @@ impl<'a> Collapse<'a> {
             pack.valid |= 1 << lane;
             lanes += 1;
         }
-        self.leaves.push(Leaf {
+        let leaf = Leaf {
             packs: (first_pack, self.packs.len() as u32),
             others: (first_other, self.others.len() as u32),
-        });
+        };
+        if leaf.packs.1 == first_pack + 1 && leaf.others.0 == leaf.others.1 && first_pack < ONE_PACK
+        {
+            return LEAF | ONE_PACK | first_pack;
+        }
+        self.leaves.push(leaf);
         LEAF | (self.leaves.len() - 1) as u32
     }
 }
@@ -655,7 +664,17 @@ impl Accel {
             let mut code = 0u32;
             loop {
                 if code & LEAF != 0 {
-                    if visit(&self.leaves[(code & !LEAF) as usize], tmax) {
+                    let leaf = match code & ONE_PACK {
+                        0 => self.leaves[(code & !LEAF) as usize],
+                        _ => {
+                            let pack = code & !(LEAF | ONE_PACK);
+                            Leaf {
+                                packs: (pack, pack + 1),
+                                others: (0, 0),
+                            }
+                        }
+                    };
+                    if visit(&leaf, tmax) {
                         return;
                     }
                 } else {
