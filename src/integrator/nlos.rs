@@ -392,8 +392,8 @@ impl<'a> NlosTracer<'a> {
     }
 }
 
-/// A `transient_nlos_path` path between bounces: its pixel, the vertex it is at (`None` once the
-/// pixel sees nothing) and the loop depth.
+/// A `transient_nlos_path` path between bounces: its pixel, the loop depth and, past the first
+/// vertex, the vertex it is at.
 pub struct NlosPath {
     pixel: usize,
     at: Option<Vertex>,
@@ -405,12 +405,13 @@ impl Tracer for NlosTracer<'_> {
     type Path = NlosPath;
     const IN_FLIGHT: usize = 2;
 
-    /// A path from the scan point of `pixel` (or what the camera's ray through it sees).
+    /// A path of `pixel`: its first vertex is found by its first bounce (a scan point is read
+    /// where it is kept, not copied).
     #[inline]
-    fn begin(&self, pixel: usize, rng: &mut Sampler) -> NlosPath {
+    fn begin(&self, pixel: usize, _rng: &mut Sampler) -> NlosPath {
         NlosPath {
             pixel,
-            at: self.first_vertex(pixel, rng),
+            at: None,
             depth: 0,
         }
     }
@@ -459,7 +460,16 @@ impl NlosTracer<'_> {
     fn bounce(&self, path: &mut NlosPath, rng: &mut Sampler, out: &mut impl FnMut(Splat)) -> bool {
         let st = self.settings;
         let (pixel, depth) = (path.pixel, path.depth);
-        let Some(v) = &mut path.at else {
+        let first;
+        let v = match (depth, self.camera) {
+            (0, None) => self.scan_vertices[pixel].as_ref(),
+            (0, Some(_)) => {
+                first = self.first_vertex(pixel, rng);
+                first.as_ref()
+            }
+            _ => path.at.as_ref(),
+        };
+        let Some(v) = v else {
             return false;
         };
         // Contribution depth of a vertex at loop depth d: d + 2 with laser sampling (the spot is
@@ -503,16 +513,20 @@ impl NlosTracer<'_> {
             (None, _) => self.bsdf_step(&v.it, v.wi, rng),
         };
         let Some(step) = step else { return false };
-        v.beta *= step.weight;
-        v.eta *= step.eta;
+        let mut beta = v.beta * step.weight;
+        let eta = v.eta * step.eta;
         // ---- Russian roulette (mitransient-model §3.3 step 4)
-        if !russian_roulette(&mut v.beta, v.eta, depth, st.rr_depth, rng) {
+        if !russian_roulette(&mut beta, eta, depth, st.rr_depth, rng) {
             return false;
         }
-        v.wi = (v.it.p - step.next.p).normalize();
-        // Light is slower by η inside a refracting medium.
-        v.opl += (step.dist * v.eta) as f64;
-        v.it = step.next;
+        path.at = Some(Vertex {
+            wi: (v.it.p - step.next.p).normalize(),
+            beta,
+            // Light is slower by η inside a refracting medium.
+            opl: v.opl + (step.dist * eta) as f64,
+            eta,
+            it: step.next,
+        });
         path.depth += 1;
         true
     }
