@@ -746,7 +746,7 @@ impl SampleValues {
 
 /// A run of one pixel's samples, [first, end), and where their sums go: its transient `buf`,
 /// steady `sum` and (with variance) each sample's squared values `squares`; the samples taken
-/// go to `taken` (fewer than asked with adaptive sampling).
+/// go to `taken` where the caller counts them (fewer than asked with adaptive sampling).
 struct Task<'b> {
     pixel: usize,
     first: u64,
@@ -754,7 +754,7 @@ struct Task<'b> {
     buf: &'b mut [f32],
     sum: &'b mut [f64; 3],
     squares: Option<&'b mut [f32]>,
-    taken: &'b mut u64,
+    taken: Option<&'b mut u64>,
 }
 
 /// A task being traced ([`Sampling::run`]): its stream, its next sample, the path in flight and
@@ -963,7 +963,9 @@ impl<'a, T: Tracer> Sampling<'a, T> {
         self.monitor
             .done
             .fetch_add(taken - (taken - 1) / BLOCK * BLOCK, Ordering::Relaxed);
-        *task.taken = taken;
+        if let Some(t) = task.taken.as_deref_mut() {
+            *t = taken;
+        }
         if lane.next == task.end {
             return Ok(true);
         }
@@ -1010,7 +1012,7 @@ impl<'a, T: Tracer> Sampling<'a, T> {
                             buf,
                             sum,
                             squares: sq.as_deref_mut(),
-                            taken,
+                            taken: Some(taken),
                         }),
                 )
             })
@@ -1244,14 +1246,12 @@ impl<'a, T: Tracer> Sampling<'a, T> {
             .with_max_len(1)
             .try_for_each(|(i, ((bufs, sts), sqs))| {
                 let mut sums = vec![[0.0f64; 3]; sqs.len()];
-                let mut taken = vec![0; sqs.len()];
                 self.run(
                     bufs.chunks_mut(len.max(1))
                         .zip(&mut sums)
                         .zip(sqs)
-                        .zip(&mut taken)
                         .enumerate()
-                        .map(|(j, (((buf, sum), sq), taken))| {
+                        .map(|(j, ((buf, sum), sq))| {
                             let task = i * g + j;
                             let (first, end) =
                                 self.plan.chunk_samples(first_chunk + task as u64 % k);
@@ -1262,7 +1262,8 @@ impl<'a, T: Tracer> Sampling<'a, T> {
                                 buf,
                                 sum,
                                 squares: sq.as_deref_mut(),
-                                taken,
+                                // A split render's parts count no samples taken.
+                                taken: None,
                             }
                         }),
                 )?;
