@@ -335,7 +335,7 @@ impl<'a> NlosTracer<'a> {
     }
 
     /// BSDF sampling from `x`: the next vertex is what the sampled direction hits.
-    #[inline]
+    #[inline(always)]
     pub(super) fn bsdf_step(&self, x: &Interaction, wi: Vec3A, rng: &mut Sampler) -> Option<Step> {
         let s = self.bsdf(x).sample(x.ns, wi, rng)?;
         let (_, hit) = self
