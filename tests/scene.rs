@@ -1,6 +1,6 @@
 //! Scene building, hidden-geometry sampling against its density, and render invariants.
 
-use glam::{DMat4, DVec3, Vec2};
+use glam::{DMat4, DVec3, Vec2, Vec3A};
 use nlos_rs::props::{Props, Value};
 use nlos_rs::render::{Monitor, RenderOptions, render};
 use nlos_rs::sampling::Sampler;
@@ -483,4 +483,115 @@ fn visibility_guide_agrees_and_spends_less_on_unlit_geometry() {
         "uniform / guided variance {}",
         var_b / var_a
     );
+}
+
+/// A scan point's cone (integrator/scan_cone.rs) keeps every direction whose ray meets its
+/// sphere: scan points on the plane z = 0 and spheres placed at random (above, across and below
+/// that plane, near and far), cosine-weighted directions drawn as the diffuse BSDF draws them,
+/// and each ray that meets the sphere (from the origin the ray is really traced from) must pass
+/// both the square's test and the cone's. Most rays that miss must be turned down.
+#[test]
+fn scan_cones_keep_every_ray_that_meets_their_sphere() {
+    use nlos_rs::geometry::Interaction;
+    use nlos_rs::integrator::scan_cone::ScanCone;
+    use nlos_rs::math::Frame;
+    use nlos_rs::sampling::square_to_cosine_hemisphere;
+    let mut rng = Sampler::new(7, 0, 0);
+    let (mut met, mut missed, mut turned_down, mut near_edge) = (0u64, 0u64, 0u64, 0u64);
+    for case in 0..400 {
+        let r = |rng: &mut Sampler, lo: f32, hi: f32| lo + (hi - lo) * rng.next_1d();
+        let n = if case % 2 == 0 { Vec3A::Z } else { -Vec3A::Z };
+        let p = Vec3A::new(r(&mut rng, -1.0, 1.0), r(&mut rng, -1.0, 1.0), 0.0);
+        let x = Interaction {
+            p,
+            ng: n,
+            ns: n,
+            shape: 0,
+        };
+        let center = Vec3A::new(
+            r(&mut rng, -2.0, 2.0),
+            r(&mut rng, -2.0, 2.0),
+            n.z * r(&mut rng, -0.5, 2.0),
+        );
+        let radius = r(&mut rng, 0.02, 1.0);
+        let Some(cone) = ScanCone::new(&x, n, (center, radius)) else {
+            assert!(
+                (center - p).length() <= radius * 1.01,
+                "case {case}: no cone from outside"
+            );
+            continue;
+        };
+        for _ in 0..2000 {
+            let u = rng.next_2d();
+            let wo = Frame::new(n).to_world(square_to_cosine_hemisphere(u));
+            let o = x.offset_origin(wo);
+            // The ray against the sphere: the least distance of its line from the centre.
+            let oc = center - o;
+            let along = oc.dot(wo);
+            let gap = (oc - wo * along).length();
+            let meets = along > 0.0 && gap <= radius || oc.length() <= radius;
+            let kept = cone.may_reach_square(u) && cone.may_reach(wo);
+            if meets {
+                met += 1;
+                near_edge += u64::from(gap > 0.98 * radius);
+                assert!(
+                    kept,
+                    "case {case}: a ray meeting the sphere was turned down (u {u})"
+                );
+            } else {
+                missed += 1;
+                turned_down += u64::from(!kept);
+            }
+        }
+    }
+    let share = turned_down as f64 / missed as f64;
+    println!("met {met} (near the edge {near_edge}), missed {missed}, turned down {share:.3}");
+    assert!(
+        near_edge > 1000,
+        "too few rays near the cones' edges: {near_edge}"
+    );
+    assert!(
+        share > 0.9,
+        "the cones turn down only {share:.3} of the rays that miss"
+    );
+}
+
+/// Over a whole scene (the relay wall and two hidden rectangles), every scan point gets a cone,
+/// and each direction its cone turns down meets nothing when traced.
+#[test]
+fn scan_cones_turn_down_only_rays_that_meet_nothing() {
+    use nlos_rs::capture::Capture;
+    use nlos_rs::integrator::scan_cone::scan_cones;
+    use nlos_rs::math::Frame;
+    use nlos_rs::sampling::square_to_cosine_hemisphere;
+    let scene = load(&scene_props(
+        vec![("nlos_hidden_geometry_sampling", Value::Bool(false))],
+        vec![],
+    ));
+    let capture =
+        Capture::new(&scene, true, &std::sync::atomic::AtomicBool::new(false)).expect("capture");
+    let points: Vec<_> = capture
+        .scan_points
+        .iter()
+        .map(|it| it.map(|it| (it, (scene.meter.origin - it.p).normalize())))
+        .collect();
+    let cones = scan_cones(&scene, &scene.shape_bsdfs(true), &points);
+    let mut rng = Sampler::new(3, 0, 0);
+    let (mut hits, mut turned_down, mut traced) = (0u64, 0u64, 0u64);
+    for (point, cone) in points.iter().zip(&cones) {
+        let ((x, _), cone) = (point.expect("on the wall"), cone.expect("a cone"));
+        for _ in 0..20_000 {
+            let u = rng.next_2d();
+            let wo = Frame::new(x.ns).to_world(square_to_cosine_hemisphere(u));
+            let hit = scene.intersect(x.offset_origin(wo), wo, f32::INFINITY);
+            traced += 1;
+            hits += u64::from(hit.is_some());
+            if !(cone.may_reach_square(u) && cone.may_reach(wo)) {
+                turned_down += 1;
+                assert!(hit.is_none(), "a turned-down direction meets {hit:?}");
+            }
+        }
+    }
+    println!("traced {traced}, hits {hits}, turned down {turned_down}");
+    assert!(hits > 0 && turned_down > traced / 2);
 }

@@ -9,7 +9,7 @@ use crate::error::Result;
 use crate::math::{Frame, Spectrum};
 use crate::props::{Colour, Props};
 use crate::sampling::{Sampler, square_to_cosine_hemisphere};
-use glam::Vec3A;
+use glam::{Vec2, Vec3A};
 use std::f32::consts::FRAC_1_PI;
 
 use super::BsdfSample;
@@ -42,10 +42,27 @@ impl Diffuse<Spectrum> {
     /// above the surface.
     #[inline]
     pub fn sample(&self, ns: Vec3A, wi: Vec3A, rng: &mut Sampler) -> Option<BsdfSample> {
+        self.sample_where(ns, wi, rng, |_| true)
+    }
+
+    /// [`Self::sample`], ending early (`None`, the same random numbers drawn) where `keep` turns
+    /// down the square sample u before it is warped.
+    #[inline]
+    pub fn sample_where(
+        &self,
+        ns: Vec3A,
+        wi: Vec3A,
+        rng: &mut Sampler,
+        keep: impl FnOnce(Vec2) -> bool,
+    ) -> Option<BsdfSample> {
         if ns.dot(wi) <= 0.0 {
             return None;
         }
-        let local = square_to_cosine_hemisphere(rng.next_2d());
+        let u = rng.next_2d();
+        if !keep(u) {
+            return None;
+        }
+        let local = square_to_cosine_hemisphere(u);
         Some(BsdfSample {
             wo: Frame::new(ns).to_world(local),
             weight: self.reflectance,

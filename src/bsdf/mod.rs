@@ -33,7 +33,7 @@ use crate::error::{NlosError, Result};
 use crate::math::{Frame, Spectrum};
 use crate::props::{Colour, Props};
 use crate::sampling::Sampler;
-use glam::Vec3A;
+use glam::{Vec2, Vec3A};
 
 /// A BSDF, with spectral parameters of type `S` ([`Colour`] as read, [`Spectrum`] to render).
 #[derive(Clone, Debug)]
@@ -262,10 +262,29 @@ impl Bsdf<Spectrum> {
     /// Sample `wo` given `wi`; `None` if no direction can be sampled (e.g. `wi` below the surface).
     #[inline(always)]
     pub fn sample(&self, ns: Vec3A, wi: Vec3A, rng: &mut Sampler) -> Option<BsdfSample> {
+        self.sample_where(ns, wi, rng, |_| true)
+    }
+
+    /// [`Self::sample`], where a diffuse side first lets `keep` turn down its square sample u
+    /// before the warp ([`Diffuse::sample_where`]; other BSDFs sample as usual).
+    #[inline(always)]
+    pub fn sample_where(
+        &self,
+        ns: Vec3A,
+        wi: Vec3A,
+        rng: &mut Sampler,
+        keep: impl FnOnce(Vec2) -> bool,
+    ) -> Option<BsdfSample> {
         match self.diffuse_side(ns, wi) {
-            Some((d, n)) => d.sample(n, wi, rng),
+            Some((d, n)) => d.sample_where(n, wi, rng, keep),
             None => self.sample_other(ns, wi, rng),
         }
+    }
+
+    /// The normal around which a diffuse side samples its cosine-weighted directions (`wi`'s
+    /// side), if this BSDF is diffuse there.
+    pub fn diffuse_normal(&self, ns: Vec3A, wi: Vec3A) -> Option<Vec3A> {
+        self.diffuse_side(ns, wi).map(|(_, n)| n)
     }
 
     /// [`Self::sample`] for the BSDFs not answered inline.

@@ -11,6 +11,7 @@ pub mod hidden_mixture;
 pub mod nlos;
 pub mod path;
 pub mod sample_reuse;
+pub mod scan_cone;
 pub mod visibility_guide;
 
 pub use nlos::NlosTracer;

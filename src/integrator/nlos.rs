@@ -8,6 +8,7 @@
 //! instead: hidden-geometry sampling tests visibility, the 50/50 technique choice does not double
 //! the estimate, and the capture's time origin ignores the shutter. See docs/compatibility.md.
 
+use super::scan_cone::{ScanCone, scan_cones};
 use super::visibility_guide::Guide;
 use super::{Splat, Step, Tracer, Vertex, hgrs, russian_roulette};
 use crate::bsdf::Bsdf;
@@ -106,6 +107,9 @@ pub struct NlosTracer<'a> {
     pub(super) capture: Capture,
     /// Each scan point as a path's first vertex (without a camera).
     pub(super) scan_vertices: Vec<Option<Vertex>>,
+    /// Per scan point, the directions a path leaving it may meet something by (without a camera;
+    /// `None` where it has no cone).
+    scan_cones: Vec<Option<ScanCone>>,
     /// The scan points' bounding box (without a camera).
     pub(super) scan_box: Option<[Vec3A; 2]>,
     /// A perspective camera as the sensor, instead of the scan points.
@@ -147,7 +151,21 @@ impl<'a> NlosTracer<'a> {
         };
         let bsdfs = scene.shape_bsdfs(mono);
         let capture = Capture::new(scene, mono, cancel)?;
+        let scan_vertices: Vec<Option<Vertex>> = match nlos.camera {
+            Some(_) => Vec::new(),
+            None => capture
+                .scan_points
+                .iter()
+                .map(|it| it.map(|it| sensor_vertex(settings, it, scene.meter.origin)))
+                .collect(),
+        };
+        let scan_points: Vec<_> = scan_vertices
+            .iter()
+            .map(|v| v.map(|v| (v.it, v.wi)))
+            .collect();
+        let scan_cones = scan_cones(scene, &bsdfs, &scan_points);
         let mut tracer = Self {
+            scan_cones,
             scene,
             settings,
             laser: &nlos.laser,
@@ -158,14 +176,7 @@ impl<'a> NlosTracer<'a> {
             behind: bsdfs.iter().map(Bsdf::scatters_behind).collect(),
             bsdfs,
             irradiance: nlos.laser.irradiance.spectrum(mono),
-            scan_vertices: match nlos.camera {
-                Some(_) => Vec::new(),
-                None => capture
-                    .scan_points
-                    .iter()
-                    .map(|it| it.map(|it| sensor_vertex(settings, it, scene.meter.origin)))
-                    .collect(),
-            },
+            scan_vertices,
             scan_box: match nlos.camera {
                 Some(_) => None,
                 None => capture.scan_points.iter().flatten().fold(None, |b, it| {
@@ -334,10 +345,23 @@ impl<'a> NlosTracer<'a> {
         })
     }
 
-    /// BSDF sampling from `x`: the next vertex is what the sampled direction hits.
+    /// BSDF sampling from `x`: the next vertex is what the sampled direction hits. From a scan
+    /// point with a cone, a direction outside it ends the step untraced (it would meet nothing).
     #[inline(always)]
-    pub(super) fn bsdf_step(&self, x: &Interaction, wi: Vec3A, rng: &mut Sampler) -> Option<Step> {
-        let s = self.bsdf(x).sample(x.ns, wi, rng)?;
+    pub(super) fn bsdf_step(
+        &self,
+        x: &Interaction,
+        wi: Vec3A,
+        rng: &mut Sampler,
+        cone: Option<&ScanCone>,
+    ) -> Option<Step> {
+        let s = match cone {
+            Some(c) => self
+                .bsdf(x)
+                .sample_where(x.ns, wi, rng, |u| c.may_reach_square(u))
+                .filter(|s| c.may_reach(s.wo))?,
+            None => self.bsdf(x).sample(x.ns, wi, rng)?,
+        };
         let (_, hit) = self
             .scene
             .intersect(x.offset_origin(s.wo), s.wo, f32::INFINITY)?;
@@ -510,7 +534,14 @@ impl NlosTracer<'_> {
                 self.mixture_step(hg, &v.it, v.wi, false, rng)
             }
             (Some(hg), None) => self.hidden_candidate(hg, &v.it, v.wi, rng),
-            (None, _) => self.bsdf_step(&v.it, v.wi, rng),
+            (None, _) => {
+                let cone = if depth == 0 {
+                    self.scan_cones.get(pixel).and_then(Option::as_ref)
+                } else {
+                    None
+                };
+                self.bsdf_step(&v.it, v.wi, rng, cone)
+            }
         };
         let Some(step) = step else { return false };
         let mut beta = v.beta * step.weight;

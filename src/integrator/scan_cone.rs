@@ -1,0 +1,199 @@
+//! Directions from a scan point that cannot reach the hidden scene, told before they are traced.
+//!
+//! With hidden-geometry sampling off (mitransient's plugin default) a path leaves its scan point
+//! on the relay wall in a cosine-weighted direction, and most of those directions meet nothing:
+//! the hidden scene fills a small part of the hemisphere, yet each such ray was set up and
+//! traced. A ray leaving a flat wall cannot meet that wall again, so everything it can meet lies
+//! in one sphere bounding the rest of the scene, and from a scan point that sphere is a cone of
+//! directions. Each scan point keeps its cone twice over:
+//! - in the square of the warp's sample u, as a ring and a sector about the square's centre: the
+//!   concentric map (Shirley & Chiu 1997) sends u's Chebyshev radius about the centre to the disk
+//!   radius, sin θ of the direction, and each line through the centre to one azimuth, so u is
+//!   tested before it is warped ([`ScanCone::may_reach_square`]);
+//! - as the cone itself, for the directions that pass that test ([`ScanCone::may_reach`]).
+//!
+//! A sample turned down ends its path as its ray would have ended it, meeting nothing, and after
+//! the same random numbers: the render is the same bit for bit. Every bound is widened by
+//! [`MARGIN`], far beyond the rounding of the warp, the frame and the ray's offset origin.
+
+use crate::bsdf::Bsdf;
+use crate::geometry::{Interaction, Prim};
+use crate::math::{Frame, RAY_EPS, Spectrum};
+use crate::scene::Scene;
+use glam::{Vec2, Vec3A};
+use std::f32::consts::{FRAC_PI_2, PI};
+
+/// Widening of every angle of a cone (radians) and of its ring's radii.
+const MARGIN: f32 = 1e-3;
+/// Most primitives of a relay wall checked to lie behind each of its scan points (a rectangle has
+/// two); a larger wall gets no cones.
+const MAX_WALL_PRIMS: usize = 64;
+/// Widest azimuth half-width a sector keeps (radians): below it the sector spans less than a
+/// half-turn in the square as well (the map bends an angle by at most 0.071 rad per side).
+const MAX_SECTOR: f32 = 1.4;
+
+/// The directions from one scan point that may meet something other than its wall.
+#[derive(Clone, Copy, Debug)]
+pub struct ScanCone {
+    /// Least and greatest disk radius (sin θ about the sampling normal) of a direction in the
+    /// cone.
+    ring: [f32; 2],
+    /// The sector's edges in the square, about its centre, counter-clockwise from the first (none
+    /// where the cone holds every azimuth).
+    sector: Option<[Vec2; 2]>,
+    /// The cone's unit axis (world space).
+    axis: Vec3A,
+    /// Cosine of its half-angle.
+    cos_half: f32,
+}
+
+impl ScanCone {
+    /// The cone of the ray leaving `x` in a direction sampled about the normal `n` (on `x`'s
+    /// side) towards the sphere `(center, radius)`; `None` where `x` is inside it.
+    pub fn new(x: &Interaction, n: Vec3A, (center, radius): (Vec3A, f32)) -> Option<Self> {
+        // The ray starts up to this far from x (`Interaction::offset_origin`): seen from x, the
+        // points it can reach lie in the sphere widened by as much.
+        let radius = radius + 2.0 * (1.0 + x.p.abs().max_element()) * RAY_EPS;
+        let to = center - x.p;
+        let dist = to.length();
+        if !(dist > radius) {
+            return None;
+        }
+        let half = (radius / dist).asin() + MARGIN;
+        let axis = to / dist;
+        let a = Frame::new(n).to_local(axis);
+        let theta = a.z.clamp(-1.0, 1.0).acos();
+        let (lo, hi) = (theta - half, theta + half);
+        let ring = [
+            if lo <= 0.0 {
+                0.0
+            } else if lo >= FRAC_PI_2 {
+                f32::INFINITY // the cone lies below the surface: nothing is reached
+            } else {
+                lo.sin() - MARGIN
+            },
+            if hi >= FRAC_PI_2 {
+                1.0
+            } else {
+                hi.sin() + MARGIN
+            },
+        ];
+        // The azimuths of a cone that holds neither pole: its axis' azimuth φ ± asin(sin α / sin θ).
+        let sector = (half.sin() < theta.sin())
+            .then(|| (half.sin() / theta.sin()).asin() + MARGIN)
+            .filter(|&width| width <= MAX_SECTOR)
+            .map(|width| {
+                let phi = a.y.atan2(a.x);
+                [square_edge(phi - width), square_edge(phi + width)]
+            });
+        Some(Self {
+            ring,
+            sector,
+            axis,
+            cos_half: half.cos(),
+        })
+    }
+
+    /// Whether the square sample `u` may warp to a direction in the cone.
+    #[inline(always)]
+    pub fn may_reach_square(&self, u: Vec2) -> bool {
+        // The concentric map's own first step (the same rounding).
+        let q = Vec2::new(2.0 * u.x - 1.0, 2.0 * u.y - 1.0);
+        let r = q.x.abs().max(q.y.abs());
+        r >= self.ring[0]
+            && r <= self.ring[1]
+            && self
+                .sector
+                .is_none_or(|[a, b]| a.perp_dot(q) >= 0.0 && q.perp_dot(b) >= 0.0)
+    }
+
+    /// Whether the unit direction `w` lies in the cone.
+    #[inline(always)]
+    pub fn may_reach(&self, w: Vec3A) -> bool {
+        w.dot(self.axis) >= self.cos_half
+    }
+}
+
+/// The line through the square's centre that the concentric map sends to azimuth `phi`: in the
+/// wedge about +x it is the map's (1, (4/π)·φ), turned by the wedge's quarter turns elsewhere.
+fn square_edge(phi: f32) -> Vec2 {
+    let k = (phi / FRAC_PI_2).round();
+    let v = Vec2::new(1.0, (phi - k * FRAC_PI_2) * (4.0 / PI));
+    match (k as i32).rem_euclid(4) {
+        0 => v,
+        1 => v.perp(),
+        2 => -v,
+        _ => -v.perp(),
+    }
+}
+
+/// Each scan point's cone, where its path's first direction is sampled by a diffuse BSDF about
+/// its geometric normal and its relay wall (a flat shape of at most [`MAX_WALL_PRIMS`] triangles)
+/// lies behind it; `None` for the other scan points.
+pub fn scan_cones(
+    scene: &Scene,
+    bsdfs: &[Bsdf<Spectrum>],
+    scan_points: &[Option<(Interaction, Vec3A)>],
+) -> Vec<Option<ScanCone>> {
+    let mut spheres: Vec<(u32, Option<(Vec3A, f32)>)> = Vec::new();
+    scan_points
+        .iter()
+        .map(|point| {
+            let (x, wi) = point.as_ref()?;
+            let n = bsdfs[x.shape as usize].diffuse_normal(x.ns, *wi)?;
+            if !(n == x.ng || n == -x.ng) || !wall_behind(scene, x, n) {
+                return None;
+            }
+            let sphere = match spheres.iter().find(|(s, _)| *s == x.shape) {
+                Some((_, sphere)) => *sphere,
+                None => {
+                    let sphere = bounding_sphere(scene, x.shape as usize);
+                    spheres.push((x.shape, sphere));
+                    sphere
+                }
+            };
+            ScanCone::new(x, n, sphere?)
+        })
+        .collect()
+}
+
+/// Whether every vertex of `x`'s shape (triangles, at most [`MAX_WALL_PRIMS`]) lies behind the
+/// plane through `x` facing `n`, or within a quarter of the ray offset in front of it: a ray
+/// leaving `x` on `n`'s side stays at least its offset away from the shape.
+fn wall_behind(scene: &Scene, x: &Interaction, n: Vec3A) -> bool {
+    let prims = &scene.prims[scene.shapes[x.shape as usize].prims.clone()];
+    let offset = (1.0 + x.p.abs().max_element()) * RAY_EPS;
+    prims.len() <= MAX_WALL_PRIMS
+        && prims.iter().all(|p| match p {
+            Prim::Triangle { v, .. } => v.iter().all(|v| n.dot(*v - x.p) <= 0.25 * offset),
+            _ => false,
+        })
+}
+
+/// A sphere holding every primitive of the scene but shape `wall`'s (the centre of their box,
+/// the radius to the farthest corner of any primitive's box), if there is one.
+fn bounding_sphere(scene: &Scene, wall: usize) -> Option<(Vec3A, f32)> {
+    let others = || {
+        scene
+            .shapes
+            .iter()
+            .enumerate()
+            .filter(move |(k, _)| *k != wall)
+            .flat_map(|(_, s)| scene.prims[s.prims.clone()].iter().map(Prim::bounds))
+    };
+    let (lo, hi) = others().fold(
+        (Vec3A::INFINITY, Vec3A::NEG_INFINITY),
+        |(lo, hi), (a, b)| (lo.min(a), hi.max(b)),
+    );
+    if !(lo.is_finite() && hi.is_finite()) {
+        return None;
+    }
+    let center = (lo + hi) * 0.5;
+    let radius = others()
+        .map(|(a, b)| (a - center).abs().max((b - center).abs()).length())
+        .fold(0.0f32, f32::max);
+    Some((
+        center,
+        radius * (1.0 + 1e-4) + 1e-6 * (1.0 + center.abs().max_element()),
+    ))
+}
