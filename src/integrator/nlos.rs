@@ -240,13 +240,14 @@ impl<'a> NlosTracer<'a> {
     }
 
     /// Laser sampling (mitransient-model §3.4): connect the path vertex `v` to the laser spot,
-    /// whose NEE is cached in `spot`.
+    /// whose NEE is cached in `spot`; `clear`: the segment between them is known to be unoccluded.
     #[inline]
     pub(super) fn connect_spot(
         &self,
         v: &Vertex,
         spot: &Spot,
         slot: usize,
+        clear: bool,
         out: &mut impl FnMut(Splat),
     ) {
         let (x, wi, beta, opl, eta) = (&v.it, v.wi, v.beta, v.opl, v.eta);
@@ -265,7 +266,7 @@ impl<'a> NlosTracer<'a> {
         let Some(f) = self.bsdf(x).eval(x.ns, wi, w) else {
             return;
         };
-        if !self.scene.visible_to(x, &spot.it) {
+        if !clear && !self.scene.visible_to(x, &spot.it) {
             return;
         }
         let Some(radiance) = self.spot_radiance(spot, w) else {
@@ -392,15 +393,24 @@ impl<'a> NlosTracer<'a> {
     }
 
     /// Emitter sampling at a vertex: laser sampling to the capture's spot(s), or NEE to the laser.
+    /// `from_scan_point`: the vertex is a path's second, reached from its scan point (no camera)
+    /// along a segment its step found clear — in a confocal capture that scan point is the spot,
+    /// so the connection needs no shadow ray of its own (mitransient traces it again).
     #[inline]
-    pub(super) fn emitter_sampling(&self, pixel: usize, v: &Vertex, out: &mut impl FnMut(Splat)) {
+    pub(super) fn emitter_sampling(
+        &self,
+        pixel: usize,
+        v: &Vertex,
+        from_scan_point: bool,
+        out: &mut impl FnMut(Splat),
+    ) {
         if !self.settings.laser_sampling {
             return self.nee_laser(v, out);
         }
         let spots = &self.capture.spots;
         match self.settings.capture_type {
-            CaptureType::Single => self.connect_spot(v, &spots[0], 0, out),
-            CaptureType::Confocal => self.connect_spot(v, &spots[pixel], 0, out),
+            CaptureType::Single => self.connect_spot(v, &spots[0], 0, false, out),
+            CaptureType::Confocal => self.connect_spot(v, &spots[pixel], 0, from_scan_point, out),
             CaptureType::Exhaustive => {
                 // One slot per laser point, or all in one when the film has no laser axis.
                 let per_spot = self.scene.meter.film.laser_scan.is_some();
@@ -409,7 +419,7 @@ impl<'a> NlosTracer<'a> {
                     if slot % 1024 == 1023 && self.cancel.load(Ordering::Relaxed) {
                         return;
                     }
-                    self.connect_spot(v, spot, if per_spot { slot } else { 0 }, out);
+                    self.connect_spot(v, spot, if per_spot { slot } else { 0 }, false, out);
                 }
             }
         }
@@ -508,7 +518,7 @@ impl NlosTracer<'_> {
         let (all_delta, some_delta) = self.delta[v.it.shape as usize];
         // ---- Emitter sampling (at a fixed scan point, fixed_contributions passes it once)
         if st.keep(depth + offset) && !all_delta && !(depth == 0 && self.spot_paths_fixed()) {
-            self.emitter_sampling(pixel, v, out);
+            self.emitter_sampling(pixel, v, depth == 1 && self.camera.is_none(), out);
         }
         // No later vertex can pass filter_bounces: stop early (changes no result).
         if st.filter_depth.is_some_and(|f| depth + 1 + offset > f) {

@@ -380,7 +380,7 @@ impl NlosTracer<'_> {
     fn spot_paths(&self, pixel: usize, x: &Vertex, out: &mut impl FnMut(Splat)) {
         let st = self.settings;
         if st.max_depth > 1 && st.keep(2) {
-            self.emitter_sampling(pixel, x, out);
+            self.emitter_sampling(pixel, x, false, out);
         }
     }
 
