@@ -18,9 +18,10 @@ confocal each); the T behind two
 corners (five-vertex signal); Mitsuba's own mi.cornell_box() made transient (line of sight); a
 1×1 capture; rgb; mitransient's example files nlos-z-simple.xml (a perspective camera),
 nlos-z-room.xml (the Z among walls) and cornell-box/cbox_diffuse.xml (line of sight, 64×64), a
-confocal capture tal wrote (tests/data/tal021, unbounded depth), and the Z's confocal capture and
-the 200k-triangle sphere with hidden-geometry sampling off (mitransient's plugin default; tal
-writes it on): BSDF sampling from the relay wall, whose rays mostly miss the hidden object.
+confocal capture tal wrote (tests/data/tal021, unbounded depth), and the Z's confocal capture, the
+200k-triangle sphere (single and confocal) and mitransient's camera file with hidden-geometry
+sampling off (mitransient's plugin default; tal writes it on): BSDF sampling from the relay wall,
+whose rays mostly miss the hidden object.
 mitransient's time is its render call with dr.eval + dr.sync_thread.
 """
 
@@ -62,6 +63,16 @@ def bumpy_sphere_mesh(path: Path, n: int = 317) -> str:
             a, b, c, d = i * n + j, i * n + (j + 1) % n, (i + 1) * n + j, (i + 1) * n + (j + 1) % n
             f += [(a, c, b), (b, c, d)]
     return str(nlos_rs.scenes.write_obj(path, v, np.array(f)))
+
+
+def hgs_off_copy(path: Path, out: Path) -> str:
+    """A copy of a mitransient scene file with hidden-geometry sampling off (its plugin default),
+    its relative file names made absolute so that it loads from `out`."""
+    text = path.read_text()
+    text = text.replace('name="nlos_hidden_geometry_sampling" value="true"', 'name="nlos_hidden_geometry_sampling" value="false"')
+    text = text.replace('value="meshes/', f'value="{path.parent / "meshes"}/')
+    out.write_text(text)
+    return str(out)
 
 
 def workloads(quick: bool):
@@ -129,6 +140,10 @@ def workloads(quick: bool):
         # Hidden-geometry sampling off, as mitransient's plugin defaults (tal writes it on).
         "z_confocal_bsdf": (lambda: bsdf_sampling(z(4096, width=64, height=64, capture_type="confocal")), "mono"),
         "mesh_200k_bsdf": (lambda: bsdf_sampling(big()), "mono"),
+        "mesh_200k_confocal_bsdf": (lambda: bsdf_sampling(big(capture_type="confocal")), "mono"),
+        "mitransient_camera_file_bsdf": (lambda: (hgs_off_copy(data / "mitransient" / "transient-nlos" / "nlos-z-simple.xml",
+                                                               scenes.cache_dir() / "bench_nlos-z-simple_hgs_off.xml"),
+                                                  max(1, 4096 // div)), "mono"),
     }
 
 
