@@ -488,8 +488,10 @@ fn visibility_guide_agrees_and_spends_less_on_unlit_geometry() {
 /// A scan point's cone (integrator/scan_cone.rs) keeps every direction whose ray meets its
 /// sphere: scan points on the plane z = 0 and spheres placed at random (above, across and below
 /// that plane, near and far), cosine-weighted directions drawn as the diffuse BSDF draws them,
-/// and each ray that meets the sphere (from the origin the ray is really traced from) must pass
-/// both the square's test and the cone's. Most rays that miss must be turned down.
+/// each from a point within the cone's reach of its scan point (half the cones reach as far as a
+/// camera pixel's footprint), and each ray that meets the sphere (from the origin it is really
+/// traced from) must pass both the square's test and the cone's. Most rays that miss must be
+/// turned down.
 #[test]
 fn scan_cones_keep_every_ray_that_meets_their_sphere() {
     use nlos_rs::geometry::Interaction;
@@ -514,17 +516,33 @@ fn scan_cones_keep_every_ray_that_meets_their_sphere() {
             n.z * r(&mut rng, -0.5, 2.0),
         );
         let radius = r(&mut rng, 0.02, 1.0);
-        let Some(cone) = ScanCone::new(&x, n, (center, radius)) else {
+        let reach = if case % 4 < 2 {
+            0.0
+        } else {
+            r(&mut rng, 0.0, 0.1)
+        };
+        let Some(cone) = ScanCone::new(&x, n, reach, (center, radius)) else {
             assert!(
-                (center - p).length() <= radius * 1.01,
+                (center - p).length() <= radius * 1.01 + reach,
                 "case {case}: no cone from outside"
             );
             continue;
         };
+        assert!(cone.drawn_about(n) && !cone.drawn_about(-n));
         for _ in 0..2000 {
+            // A first vertex within the reach, on the plane.
+            let (a, b) = (
+                std::f32::consts::TAU * rng.next_1d(),
+                0.999 * reach * rng.next_1d().sqrt(),
+            );
+            let y = Interaction {
+                p: p + Vec3A::new(b * a.cos(), b * a.sin(), 0.0),
+                ..x
+            };
+            assert!(cone.holds_at(&y));
             let u = rng.next_2d();
             let wo = Frame::new(n).to_world(square_to_cosine_hemisphere(u));
-            let o = x.offset_origin(wo);
+            let o = y.offset_origin(wo);
             // The ray against the sphere: the least distance of its line from the centre.
             let oc = center - o;
             let along = oc.dot(wo);
@@ -573,13 +591,13 @@ fn scan_cones_turn_down_only_rays_that_meet_nothing() {
     let points: Vec<_> = capture
         .scan_points
         .iter()
-        .map(|it| it.map(|it| (it, (scene.meter.origin - it.p).normalize())))
+        .map(|it| it.map(|it| (it, (scene.meter.origin - it.p).normalize(), 0.0)))
         .collect();
     let cones = scan_cones(&scene, &scene.shape_bsdfs(true), &points);
     let mut rng = Sampler::new(3, 0, 0);
     let (mut hits, mut turned_down, mut traced) = (0u64, 0u64, 0u64);
     for (point, cone) in points.iter().zip(&cones) {
-        let ((x, _), cone) = (point.expect("on the wall"), cone.expect("a cone"));
+        let ((x, _, _), cone) = (point.expect("on the wall"), cone.expect("a cone"));
         for _ in 0..20_000 {
             let u = rng.next_2d();
             let wo = Frame::new(x.ns).to_world(square_to_cosine_hemisphere(u));
@@ -594,4 +612,66 @@ fn scan_cones_turn_down_only_rays_that_meet_nothing() {
     }
     println!("traced {traced}, hits {hits}, turned down {turned_down}");
     assert!(hits > 0 && turned_down > traced / 2);
+}
+
+/// mitransient's camera file: every pixel that sees the relay wall gets a footprint cone, which
+/// holds for the first vertices its jittered camera rays find, and each direction it turns down
+/// meets nothing.
+#[test]
+fn camera_footprint_cones_turn_down_only_rays_that_meet_nothing() {
+    use nlos_rs::integrator::scan_cone::{pixel_footprints, scan_cones};
+    use nlos_rs::math::Frame;
+    use nlos_rs::sampling::square_to_cosine_hemisphere;
+    use std::sync::atomic::AtomicBool;
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/data/mitransient/transient-nlos/nlos-z-simple.xml");
+    let props = nlos_rs::xml::load(&path, &Default::default()).expect("mitransient's file");
+    let scene = Scene::from_props(&props, path.parent().expect("a folder")).expect("valid scene");
+    let camera = scene
+        .nlos()
+        .expect("NLOS")
+        .camera
+        .clone()
+        .expect("a camera");
+    let (w, h) = (scene.meter.film.width, scene.meter.film.height);
+    let footprints = pixel_footprints(&scene, &camera, &AtomicBool::new(false));
+    let cones = scan_cones(&scene, &scene.shape_bsdfs(true), &footprints);
+    // The camera sees past the wall's edges in some pixels: those have no footprint.
+    let seen = footprints.iter().flatten().count();
+    assert!(seen > w * h / 2 && cones.iter().flatten().count() == seen);
+    let mut rng = Sampler::new(5, 0, 0);
+    let (mut first, mut held, mut turned_down, mut hits) = (0u64, 0u64, 0u64, 0u64);
+    for (pixel, cone) in cones.iter().enumerate() {
+        let Some(cone) = cone else { continue };
+        for _ in 0..8 {
+            let r = camera.pixel_ray(pixel, w, h, rng.next_2d());
+            let Some((_, x)) = scene.intersect(r.o, r.d, f32::INFINITY) else {
+                continue;
+            };
+            first += 1;
+            if !cone.holds_at(&x) {
+                continue;
+            }
+            held += 1;
+            for _ in 0..40 {
+                let u = rng.next_2d();
+                let wo = Frame::new(x.ns).to_world(square_to_cosine_hemisphere(u));
+                let hit = scene.intersect(x.offset_origin(wo), wo, f32::INFINITY);
+                hits += u64::from(hit.is_some());
+                if cone.drawn_about(x.ns) && !(cone.may_reach_square(u) && cone.may_reach(wo)) {
+                    turned_down += 1;
+                    assert!(
+                        hit.is_none(),
+                        "pixel {pixel}: a turned-down direction meets {hit:?}"
+                    );
+                }
+            }
+        }
+    }
+    println!("first vertices {first}, held {held}, hits {hits}, turned down {turned_down}");
+    assert!(
+        held == first && first > 0,
+        "{held} of {first} first vertices within their footprint"
+    );
+    assert!(hits > 0 && turned_down > held * 40 / 2);
 }

@@ -42,24 +42,24 @@ impl Diffuse<Spectrum> {
     /// above the surface.
     #[inline]
     pub fn sample(&self, ns: Vec3A, wi: Vec3A, rng: &mut Sampler) -> Option<BsdfSample> {
-        self.sample_where(ns, wi, rng, |_| true)
+        self.sample_where(ns, wi, rng, |_, _| true)
     }
 
     /// [`Self::sample`], ending early (`None`, the same random numbers drawn) where `keep` turns
-    /// down the square sample u before it is warped.
+    /// down the square sample u (drawn about the normal `ns`) before it is warped.
     #[inline]
     pub fn sample_where(
         &self,
         ns: Vec3A,
         wi: Vec3A,
         rng: &mut Sampler,
-        keep: impl FnOnce(Vec2) -> bool,
+        keep: impl FnOnce(Vec3A, Vec2) -> bool,
     ) -> Option<BsdfSample> {
         if ns.dot(wi) <= 0.0 {
             return None;
         }
         let u = rng.next_2d();
-        if !keep(u) {
+        if !keep(ns, u) {
             return None;
         }
         let local = square_to_cosine_hemisphere(u);

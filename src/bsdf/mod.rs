@@ -262,18 +262,19 @@ impl Bsdf<Spectrum> {
     /// Sample `wo` given `wi`; `None` if no direction can be sampled (e.g. `wi` below the surface).
     #[inline(always)]
     pub fn sample(&self, ns: Vec3A, wi: Vec3A, rng: &mut Sampler) -> Option<BsdfSample> {
-        self.sample_where(ns, wi, rng, |_| true)
+        self.sample_where(ns, wi, rng, |_, _| true)
     }
 
     /// [`Self::sample`], where a diffuse side first lets `keep` turn down its square sample u
-    /// before the warp ([`Diffuse::sample_where`]; other BSDFs sample as usual).
+    /// (with the normal it is drawn about) before the warp ([`Diffuse::sample_where`]; other
+    /// BSDFs sample as usual).
     #[inline(always)]
     pub fn sample_where(
         &self,
         ns: Vec3A,
         wi: Vec3A,
         rng: &mut Sampler,
-        keep: impl FnOnce(Vec2) -> bool,
+        keep: impl FnOnce(Vec3A, Vec2) -> bool,
     ) -> Option<BsdfSample> {
         match self.diffuse_side(ns, wi) {
             Some((d, n)) => d.sample_where(n, wi, rng, keep),

@@ -8,7 +8,7 @@
 //! instead: hidden-geometry sampling tests visibility, the 50/50 technique choice does not double
 //! the estimate, and the capture's time origin ignores the shutter. See docs/compatibility.md.
 
-use super::scan_cone::{ScanCone, scan_cones};
+use super::scan_cone::{ScanCone, pixel_footprints, scan_cones};
 use super::visibility_guide::Guide;
 use super::{Splat, Step, Tracer, Vertex, hgrs, russian_roulette};
 use crate::bsdf::Bsdf;
@@ -159,10 +159,14 @@ impl<'a> NlosTracer<'a> {
                 .map(|it| it.map(|it| sensor_vertex(settings, it, scene.meter.origin)))
                 .collect(),
         };
-        let scan_points: Vec<_> = scan_vertices
-            .iter()
-            .map(|v| v.map(|v| (v.it, v.wi)))
-            .collect();
+        // Where paths leave from: the scan points themselves, or each camera pixel's footprint.
+        let scan_points: Vec<_> = match &nlos.camera {
+            Some(camera) => pixel_footprints(scene, camera, cancel),
+            None => scan_vertices
+                .iter()
+                .map(|v| v.map(|v| (v.it, v.wi, 0.0)))
+                .collect(),
+        };
         let scan_cones = scan_cones(scene, &bsdfs, &scan_points);
         let mut tracer = Self {
             scan_cones,
@@ -357,10 +361,18 @@ impl<'a> NlosTracer<'a> {
         cone: Option<&ScanCone>,
     ) -> Option<Step> {
         let s = match cone {
-            Some(c) => self
-                .bsdf(x)
-                .sample_where(x.ns, wi, rng, |u| c.may_reach_square(u))
-                .filter(|s| c.may_reach(s.wo))?,
+            Some(c) => {
+                // The cone holds for directions drawn about its own normal.
+                let mut about_cone = false;
+                let s = self.bsdf(x).sample_where(x.ns, wi, rng, |n, u| {
+                    about_cone = c.drawn_about(n);
+                    !about_cone || c.may_reach_square(u)
+                })?;
+                if about_cone && !c.may_reach(s.wo) {
+                    return None;
+                }
+                s
+            }
             None => self.bsdf(x).sample(x.ns, wi, rng)?,
         };
         let (_, hit) = self
@@ -546,7 +558,10 @@ impl NlosTracer<'_> {
             (Some(hg), None) => self.hidden_candidate(hg, &v.it, v.wi, rng),
             (None, _) => {
                 let cone = if depth == 0 {
-                    self.scan_cones.get(pixel).and_then(Option::as_ref)
+                    self.scan_cones
+                        .get(pixel)
+                        .and_then(Option::as_ref)
+                        .filter(|c| c.holds_at(&v.it))
                 } else {
                     None
                 };

@@ -20,8 +20,10 @@ use crate::bsdf::Bsdf;
 use crate::geometry::{Interaction, Prim};
 use crate::math::{Frame, RAY_EPS, Spectrum};
 use crate::scene::Scene;
+use crate::sensor::Camera;
 use glam::{Vec2, Vec3A};
 use std::f32::consts::{FRAC_PI_2, PI};
+use std::sync::atomic::{AtomicBool, Ordering};
 
 /// Widening of every angle of a cone (radians) and of its ring's radii.
 const MARGIN: f32 = 1e-3;
@@ -32,9 +34,17 @@ const MAX_WALL_PRIMS: usize = 64;
 /// half-turn in the square as well (the map bends an angle by at most 0.071 rad per side).
 const MAX_SECTOR: f32 = 1.4;
 
-/// The directions from one scan point that may meet something other than its wall.
+/// The directions from one scan point (or from anywhere within `reach` of it on its wall: a
+/// camera pixel's footprint) that may meet something other than its wall.
 #[derive(Clone, Copy, Debug)]
 pub struct ScanCone {
+    /// The scan point, its shape, and the squared distance from it within which a path's first
+    /// vertex on that shape may leave by this cone.
+    anchor: Vec3A,
+    shape: u32,
+    reach2: f32,
+    /// The normal about which the cone's square sample is drawn.
+    n: Vec3A,
     /// Least and greatest disk radius (sin θ about the sampling normal) of a direction in the
     /// cone.
     ring: [f32; 2],
@@ -48,12 +58,19 @@ pub struct ScanCone {
 }
 
 impl ScanCone {
-    /// The cone of the ray leaving `x` in a direction sampled about the normal `n` (on `x`'s
-    /// side) towards the sphere `(center, radius)`; `None` where `x` is inside it.
-    pub fn new(x: &Interaction, n: Vec3A, (center, radius): (Vec3A, f32)) -> Option<Self> {
-        // The ray starts up to this far from x (`Interaction::offset_origin`): seen from x, the
-        // points it can reach lie in the sphere widened by as much.
-        let radius = radius + 2.0 * (1.0 + x.p.abs().max_element()) * RAY_EPS;
+    /// The cone of the rays leaving `x`, or a point of its shape within `reach` of it, in a
+    /// direction sampled about the normal `n` (on `x`'s side) towards the sphere
+    /// `(center, radius)`; `None` where `x` is inside it.
+    pub fn new(
+        x: &Interaction,
+        n: Vec3A,
+        reach: f32,
+        (center, radius): (Vec3A, f32),
+    ) -> Option<Self> {
+        // A ray starts within `reach` of x, and up to its offset from there
+        // (`Interaction::offset_origin`): seen from x, the points it can reach lie in the sphere
+        // widened by as much.
+        let radius = radius + reach + 2.0 * (1.0 + x.p.abs().max_element() + reach) * RAY_EPS;
         let to = center - x.p;
         let dist = to.length();
         if !(dist > radius) {
@@ -87,6 +104,10 @@ impl ScanCone {
                 [square_edge(phi - width), square_edge(phi + width)]
             });
         Some(Self {
+            anchor: x.p,
+            shape: x.shape,
+            reach2: reach * reach,
+            n,
             ring,
             sector,
             axis,
@@ -94,7 +115,21 @@ impl ScanCone {
         })
     }
 
-    /// Whether the square sample `u` may warp to a direction in the cone.
+    /// Whether a path's first vertex at `x` leaves by this cone: on its shape, within its reach.
+    #[inline(always)]
+    pub fn holds_at(&self, x: &Interaction) -> bool {
+        x.shape == self.shape && (x.p - self.anchor).length_squared() <= self.reach2
+    }
+
+    /// Whether directions drawn about the normal `n` are the cone's: `n` is its own normal, to
+    /// within rounding (the other side of a two-sided wall is not).
+    #[inline(always)]
+    pub fn drawn_about(&self, n: Vec3A) -> bool {
+        (n - self.n).length_squared() <= 1e-10
+    }
+
+    /// Whether the square sample `u`, drawn about the cone's normal, may warp to a direction in
+    /// the cone.
     #[inline(always)]
     pub fn may_reach_square(&self, u: Vec2) -> bool {
         // The concentric map's own first step (the same rounding).
@@ -127,19 +162,20 @@ fn square_edge(phi: f32) -> Vec2 {
     }
 }
 
-/// Each scan point's cone, where its path's first direction is sampled by a diffuse BSDF about
-/// its geometric normal and its relay wall (a flat shape of at most [`MAX_WALL_PRIMS`] triangles)
-/// lies behind it; `None` for the other scan points.
+/// Each scan point's cone — `(x, wi, reach)`: the point, the direction back to the sensor and how
+/// far from it on its shape a path's first vertex may lie — where its path's first direction is
+/// sampled by a diffuse BSDF about its geometric normal and its relay wall (a flat shape of at
+/// most [`MAX_WALL_PRIMS`] triangles) lies behind it; `None` for the other scan points.
 pub fn scan_cones(
     scene: &Scene,
     bsdfs: &[Bsdf<Spectrum>],
-    scan_points: &[Option<(Interaction, Vec3A)>],
+    scan_points: &[Option<(Interaction, Vec3A, f32)>],
 ) -> Vec<Option<ScanCone>> {
     let mut spheres: Vec<(u32, Option<(Vec3A, f32)>)> = Vec::new();
     scan_points
         .iter()
         .map(|point| {
-            let (x, wi) = point.as_ref()?;
+            let (x, wi, reach) = point.as_ref()?;
             let n = bsdfs[x.shape as usize].diffuse_normal(x.ns, *wi)?;
             if !(n == x.ng || n == -x.ng) || !wall_behind(scene, x, n) {
                 return None;
@@ -152,9 +188,53 @@ pub fn scan_cones(
                     sphere
                 }
             };
-            ScanCone::new(x, n, sphere?)
+            ScanCone::new(x, n, *reach, sphere?)
         })
         .collect()
+}
+
+/// Each camera pixel's footprint on what its central ray meets (`None` where it meets nothing):
+/// that point, the direction back to the camera, and the farthest from it that the pixel's corner
+/// rays meet its plane (any ray through the pixel meets that plane within it; a path whose first
+/// vertex lies farther, or elsewhere, leaves without a cone). Stops early, all `None`, once
+/// `cancel` is set.
+pub fn pixel_footprints(
+    scene: &Scene,
+    camera: &Camera,
+    cancel: &AtomicBool,
+) -> Vec<Option<(Interaction, Vec3A, f32)>> {
+    let (w, h) = (scene.meter.film.width, scene.meter.film.height);
+    // The corner rays, shared by the pixels around each corner.
+    let corner =
+        |i: usize, j: usize| camera.ray(Vec2::new(i as f32 / w as f32, j as f32 / h as f32));
+    let corners: Vec<_> = (0..=h)
+        .flat_map(|j| (0..=w).map(move |i| (i, j)))
+        .map(|(i, j)| corner(i, j))
+        .collect();
+    let mut out = Vec::with_capacity(w * h);
+    for pixel in 0..w * h {
+        if pixel % 4096 == 4095 && cancel.load(Ordering::Relaxed) {
+            return vec![None; w * h];
+        }
+        out.push((|| {
+            let r = camera.pixel_ray(pixel, w, h, Vec2::splat(0.5));
+            let hit = scene.accel.intersect(r.o, r.d, r.tmin, r.tmax)?;
+            let x = scene.interaction(r.o, r.d, &hit);
+            let (px, py) = (pixel % w, pixel / w);
+            let mut reach = 0.0f32;
+            for (i, j) in [(px, py), (px + 1, py), (px, py + 1), (px + 1, py + 1)] {
+                let c = &corners[j * (w + 1) + i];
+                let t = x.ng.dot(x.p - c.o) / x.ng.dot(c.d);
+                if !(t > 0.0 && t.is_finite()) {
+                    return None;
+                }
+                reach = reach.max((c.o + c.d * t - x.p).length());
+            }
+            let reach = reach * (1.0 + MARGIN) + 1e-6 * (1.0 + x.p.abs().max_element());
+            Some((x, (r.o - x.p).normalize(), reach))
+        })());
+    }
+    out
 }
 
 /// Whether every vertex of `x`'s shape (triangles, at most [`MAX_WALL_PRIMS`]) lies behind the
