@@ -616,9 +616,11 @@ fn scan_cones_turn_down_only_rays_that_meet_nothing() {
 
 /// mitransient's camera file: every pixel that sees the relay wall gets a footprint cone, which
 /// holds for the first vertices its jittered camera rays find, and each direction it turns down
-/// meets nothing.
+/// meets nothing; where a pixel's rays can meet the wall alone, its triangles alone give the hit
+/// the whole scene gives.
 #[test]
 fn camera_footprint_cones_turn_down_only_rays_that_meet_nothing() {
+    use nlos_rs::geometry::bvh::intersect_brute;
     use nlos_rs::integrator::scan_cone::{pixel_footprints, scan_cones};
     use nlos_rs::math::Frame;
     use nlos_rs::sampling::square_to_cosine_hemisphere;
@@ -634,18 +636,29 @@ fn camera_footprint_cones_turn_down_only_rays_that_meet_nothing() {
         .clone()
         .expect("a camera");
     let (w, h) = (scene.meter.film.width, scene.meter.film.height);
-    let footprints = pixel_footprints(&scene, &camera, &AtomicBool::new(false));
+    let seen_by = pixel_footprints(&scene, &camera, &AtomicBool::new(false));
+    let footprints = seen_by.points;
     let cones = scan_cones(&scene, &scene.shape_bsdfs(true), &footprints);
     // The camera sees past the wall's edges in some pixels: those have no footprint.
     let seen = footprints.iter().flatten().count();
     assert!(seen > w * h / 2 && cones.iter().flatten().count() == seen);
     let mut rng = Sampler::new(5, 0, 0);
     let (mut first, mut held, mut turned_down, mut hits) = (0u64, 0u64, 0u64, 0u64);
+    let mut sole = 0;
     for (pixel, cone) in cones.iter().enumerate() {
         let Some(cone) = cone else { continue };
         for _ in 0..8 {
             let r = camera.pixel_ray(pixel, w, h, rng.next_2d());
-            let Some((_, x)) = scene.intersect(r.o, r.d, f32::INFINITY) else {
+            let found = scene.accel.intersect(r.o, r.d, r.tmin, r.tmax);
+            // A pixel whose rays meet one shape only: its triangles alone give the same hit.
+            if let Some(shape) = seen_by.sole_shapes[pixel] {
+                let prims = scene.shapes[shape as usize].prims.clone();
+                let alone = intersect_brute(&scene.prims[prims.clone()], r.o, r.d, r.tmin, r.tmax);
+                let alone = alone.map(|h| (h.t, h.prim + prims.start as u32, h.b));
+                assert_eq!(alone, found.map(|h| (h.t, h.prim, h.b)), "pixel {pixel}");
+                sole += 1;
+            }
+            let Some(x) = found.map(|hit| scene.interaction(r.o, r.d, &hit)) else {
                 continue;
             };
             first += 1;
@@ -668,7 +681,13 @@ fn camera_footprint_cones_turn_down_only_rays_that_meet_nothing() {
             }
         }
     }
-    println!("first vertices {first}, held {held}, hits {hits}, turned down {turned_down}");
+    println!(
+        "first vertices {first}, held {held}, hits {hits}, turned down {turned_down}, sole {sole}"
+    );
+    assert!(
+        sole > first / 2,
+        "{sole} of {first} camera rays in pixels that see one shape"
+    );
     assert!(
         held == first && first > 0,
         "{held} of {first} first vertices within their footprint"

@@ -15,7 +15,8 @@ use crate::bsdf::Bsdf;
 use crate::capture::{Capture, Spot};
 use crate::emitter::Projector;
 use crate::error::{NlosError, Result};
-use crate::geometry::Interaction;
+use crate::geometry::bvh::intersect_brute;
+use crate::geometry::{Hit, Interaction};
 use crate::math::{COS_EPS, Spectrum};
 use crate::sampling::Sampler;
 use crate::scene::{AreaSampler, Scene};
@@ -110,6 +111,8 @@ pub struct NlosTracer<'a> {
     /// Per scan point, the directions a path leaving it may meet something by (without a camera;
     /// `None` where it has no cone).
     scan_cones: Vec<Option<ScanCone>>,
+    /// Per camera pixel, the one small shape its rays can meet, if only one.
+    sole_shapes: Vec<Option<u32>>,
     /// The scan points' bounding box (without a camera).
     pub(super) scan_box: Option<[Vec3A; 2]>,
     /// A perspective camera as the sensor, instead of the scan points.
@@ -160,16 +163,23 @@ impl<'a> NlosTracer<'a> {
                 .collect(),
         };
         // Where paths leave from: the scan points themselves, or each camera pixel's footprint.
-        let scan_points: Vec<_> = match &nlos.camera {
-            Some(camera) => pixel_footprints(scene, camera, cancel),
-            None => scan_vertices
-                .iter()
-                .map(|v| v.map(|v| (v.it, v.wi, 0.0)))
-                .collect(),
+        let (scan_points, sole_shapes) = match &nlos.camera {
+            Some(camera) => {
+                let f = pixel_footprints(scene, camera, cancel);
+                (f.points, f.sole_shapes)
+            }
+            None => (
+                scan_vertices
+                    .iter()
+                    .map(|v| v.map(|v| (v.it, v.wi, 0.0)))
+                    .collect(),
+                Vec::new(),
+            ),
         };
         let scan_cones = scan_cones(scene, &bsdfs, &scan_points);
         let mut tracer = Self {
             scan_cones,
+            sole_shapes,
             scene,
             settings,
             laser: &nlos.laser,
@@ -396,7 +406,19 @@ impl<'a> NlosTracer<'a> {
         };
         let film = &self.scene.meter.film;
         let r = camera.pixel_ray(pixel, film.width, film.height, rng.next_2d());
-        let hit = self.scene.accel.intersect(r.o, r.d, r.tmin, r.tmax)?;
+        let hit = match self.sole_shapes[pixel] {
+            // Nothing else lies in the pixel's rays: that shape's few triangles alone, tested
+            // as the scan and the tree test them (the same hits, the same tie rule).
+            Some(shape) => {
+                let prims = self.scene.shapes[shape as usize].prims.clone();
+                let first = prims.start as u32;
+                intersect_brute(&self.scene.prims[prims], r.o, r.d, r.tmin, r.tmax).map(|h| Hit {
+                    prim: h.prim + first,
+                    ..h
+                })
+            }
+            None => self.scene.accel.intersect(r.o, r.d, r.tmin, r.tmax),
+        }?;
         Some(sensor_vertex(
             self.settings,
             self.scene.interaction(r.o, r.d, &hit),

@@ -171,7 +171,7 @@ pub fn scan_cones(
     bsdfs: &[Bsdf<Spectrum>],
     scan_points: &[Option<(Interaction, Vec3A, f32)>],
 ) -> Vec<Option<ScanCone>> {
-    let mut spheres: Vec<(u32, Option<(Vec3A, f32)>)> = Vec::new();
+    let mut spheres = Spheres::default();
     scan_points
         .iter()
         .map(|point| {
@@ -180,29 +180,25 @@ pub fn scan_cones(
             if !(n == x.ng || n == -x.ng) || !wall_behind(scene, x, n) {
                 return None;
             }
-            let sphere = match spheres.iter().find(|(s, _)| *s == x.shape) {
-                Some((_, sphere)) => *sphere,
-                None => {
-                    let sphere = bounding_sphere(scene, x.shape as usize);
-                    spheres.push((x.shape, sphere));
-                    sphere
-                }
-            };
-            ScanCone::new(x, n, *reach, sphere?)
+            ScanCone::new(x, n, *reach, spheres.around_all_but(scene, x.shape)?)
         })
         .collect()
 }
 
-/// Each camera pixel's footprint on what its central ray meets (`None` where it meets nothing):
-/// that point, the direction back to the camera, and the farthest from it that the pixel's corner
-/// rays meet its plane (any ray through the pixel meets that plane within it; a path whose first
-/// vertex lies farther, or elsewhere, leaves without a cone). Stops early, all `None`, once
-/// `cancel` is set.
-pub fn pixel_footprints(
-    scene: &Scene,
-    camera: &Camera,
-    cancel: &AtomicBool,
-) -> Vec<Option<(Interaction, Vec3A, f32)>> {
+/// What a camera's pixels see ([`pixel_footprints`]).
+pub struct Footprints {
+    /// Each pixel's footprint on what its central ray meets (`None` where it meets nothing): that
+    /// point, the direction back to the camera, and the farthest from it that the pixel's corner
+    /// rays meet its plane (any ray through the pixel meets that plane within it; a path whose
+    /// first vertex lies farther, or elsewhere, leaves without a cone).
+    pub points: Vec<Option<(Interaction, Vec3A, f32)>>,
+    /// Per pixel, the one shape (of at most [`MAX_WALL_PRIMS`] primitives) its rays can meet,
+    /// where the pixel's rays all pass outside the sphere around the rest of the scene.
+    pub sole_shapes: Vec<Option<u32>>,
+}
+
+/// The footprints of a camera's pixels. Stops early, all `None`, once `cancel` is set.
+pub fn pixel_footprints(scene: &Scene, camera: &Camera, cancel: &AtomicBool) -> Footprints {
     let (w, h) = (scene.meter.film.width, scene.meter.film.height);
     // The corner rays, shared by the pixels around each corner.
     let corner =
@@ -211,19 +207,28 @@ pub fn pixel_footprints(
         .flat_map(|j| (0..=w).map(move |i| (i, j)))
         .map(|(i, j)| corner(i, j))
         .collect();
-    let mut out = Vec::with_capacity(w * h);
+    let mut spheres = Spheres::default();
+    let (mut points, mut sole_shapes) = (Vec::with_capacity(w * h), Vec::with_capacity(w * h));
     for pixel in 0..w * h {
         if pixel % 4096 == 4095 && cancel.load(Ordering::Relaxed) {
-            return vec![None; w * h];
+            return Footprints {
+                points: vec![None; w * h],
+                sole_shapes: vec![None; w * h],
+            };
         }
-        out.push((|| {
-            let r = camera.pixel_ray(pixel, w, h, Vec2::splat(0.5));
-            let hit = scene.accel.intersect(r.o, r.d, r.tmin, r.tmax)?;
-            let x = scene.interaction(r.o, r.d, &hit);
-            let (px, py) = (pixel % w, pixel / w);
+        let (px, py) = (pixel % w, pixel / w);
+        let pixel_corners = [(px, py), (px + 1, py), (px, py + 1), (px + 1, py + 1)]
+            .map(|(i, j)| &corners[j * (w + 1) + i]);
+        let r = camera.pixel_ray(pixel, w, h, Vec2::splat(0.5));
+        let Some(hit) = scene.accel.intersect(r.o, r.d, r.tmin, r.tmax) else {
+            points.push(None);
+            sole_shapes.push(None);
+            continue;
+        };
+        let x = scene.interaction(r.o, r.d, &hit);
+        points.push((|| {
             let mut reach = 0.0f32;
-            for (i, j) in [(px, py), (px + 1, py), (px, py + 1), (px + 1, py + 1)] {
-                let c = &corners[j * (w + 1) + i];
+            for c in pixel_corners {
                 let t = x.ng.dot(x.p - c.o) / x.ng.dot(c.d);
                 if !(t > 0.0 && t.is_finite()) {
                     return None;
@@ -233,8 +238,45 @@ pub fn pixel_footprints(
             let reach = reach * (1.0 + MARGIN) + 1e-6 * (1.0 + x.p.abs().max_element());
             Some((x, (r.o - x.p).normalize(), reach))
         })());
+        // The pixel's rays lie within `spread` of its central one; they meet nothing but x's
+        // shape if that cone passes outside the sphere around everything else.
+        let spread = pixel_corners
+            .iter()
+            .map(|c| r.d.dot(c.d).clamp(-1.0, 1.0).acos())
+            .fold(0.0f32, f32::max);
+        let sole = (scene.shapes[x.shape as usize].prims.len() <= MAX_WALL_PRIMS)
+            .then(|| spheres.around_all_but(scene, x.shape))
+            .flatten()
+            .is_some_and(|(center, radius)| {
+                let to = center - r.o;
+                let dist = to.length();
+                dist > radius
+                    && r.d.dot(to / dist).clamp(-1.0, 1.0).acos()
+                        > spread + (radius / dist).asin() + 2.0 * MARGIN
+            });
+        sole_shapes.push(sole.then_some(x.shape));
     }
-    out
+    Footprints {
+        points,
+        sole_shapes,
+    }
+}
+
+/// Bounding spheres around all shapes but one, made once per shape left out.
+#[derive(Default)]
+struct Spheres(Vec<(u32, Option<(Vec3A, f32)>)>);
+
+impl Spheres {
+    fn around_all_but(&mut self, scene: &Scene, shape: u32) -> Option<(Vec3A, f32)> {
+        match self.0.iter().find(|(s, _)| *s == shape) {
+            Some((_, sphere)) => *sphere,
+            None => {
+                let sphere = bounding_sphere(scene, shape as usize);
+                self.0.push((shape, sphere));
+                sphere
+            }
+        }
+    }
 }
 
 /// Whether every vertex of `x`'s shape (triangles, at most [`MAX_WALL_PRIMS`]) lies behind the
