@@ -401,9 +401,16 @@ impl<'a> NlosTracer<'a> {
     /// camera the surface its jittered ray hits (the first leg measured from the pinhole).
     #[inline]
     pub(super) fn first_vertex(&self, pixel: usize, rng: &mut Sampler) -> Option<Vertex> {
-        let Some(camera) = self.camera else {
-            return self.scan_vertices[pixel];
-        };
+        match self.camera {
+            None => self.scan_vertices[pixel],
+            Some(camera) => self.camera_vertex(camera, pixel, rng),
+        }
+    }
+
+    /// [`Self::first_vertex`] with a camera (out of line: the scan points' case stays small
+    /// where it is inlined).
+    #[inline(never)]
+    fn camera_vertex(&self, camera: &Camera, pixel: usize, rng: &mut Sampler) -> Option<Vertex> {
         let film = &self.scene.meter.film;
         let r = camera.pixel_ray(pixel, film.width, film.height, rng.next_2d());
         let hit = match self.sole_shapes[pixel] {
