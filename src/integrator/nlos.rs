@@ -108,8 +108,8 @@ pub struct NlosTracer<'a> {
     pub(super) capture: Capture,
     /// Each scan point as a path's first vertex (without a camera).
     pub(super) scan_vertices: Vec<Option<Vertex>>,
-    /// Per scan point, the directions a path leaving it may meet something by (without a camera;
-    /// `None` where it has no cone).
+    /// Per scan point or camera pixel, the directions a path leaving it may meet something by
+    /// (`None` where it has no cone).
     scan_cones: Vec<Option<ScanCone>>,
     /// Per camera pixel, the one small shape its rays can meet, if only one.
     sole_shapes: Vec<Option<u32>>,

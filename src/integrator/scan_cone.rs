@@ -14,7 +14,13 @@
 //!
 //! A sample turned down ends its path as its ray would have ended it, meeting nothing, and after
 //! the same random numbers: the render is the same bit for bit. Every bound is widened by
-//! [`MARGIN`], far beyond the rounding of the warp, the frame and the ray's offset origin.
+//! `MARGIN`, far beyond the rounding of the warp, the frame and the ray's offset origin.
+//!
+//! With a camera as the sensor a pixel's first vertices spread over its footprint on the wall:
+//! its cone is made from the central ray's point with the sphere widened by the footprint's reach
+//! ([`pixel_footprints`]), and holds for a first vertex on that shape within it. Where the cone of
+//! a pixel's own rays passes outside the sphere, the camera ray can meet the wall alone
+//! ([`Footprints::sole_shapes`]).
 
 use crate::bsdf::Bsdf;
 use crate::geometry::{Interaction, Prim};
@@ -165,7 +171,7 @@ fn square_edge(phi: f32) -> Vec2 {
 /// Each scan point's cone — `(x, wi, reach)`: the point, the direction back to the sensor and how
 /// far from it on its shape a path's first vertex may lie — where its path's first direction is
 /// sampled by a diffuse BSDF about its geometric normal and its relay wall (a flat shape of at
-/// most [`MAX_WALL_PRIMS`] triangles) lies behind it; `None` for the other scan points.
+/// most `MAX_WALL_PRIMS` triangles) lies behind it; `None` for the other scan points.
 pub fn scan_cones(
     scene: &Scene,
     bsdfs: &[Bsdf<Spectrum>],
@@ -192,7 +198,7 @@ pub struct Footprints {
     /// rays meet its plane (any ray through the pixel meets that plane within it; a path whose
     /// first vertex lies farther, or elsewhere, leaves without a cone).
     pub points: Vec<Option<(Interaction, Vec3A, f32)>>,
-    /// Per pixel, the one shape (of at most [`MAX_WALL_PRIMS`] primitives) its rays can meet,
+    /// Per pixel, the one shape (of at most `MAX_WALL_PRIMS` primitives) its rays can meet,
     /// where the pixel's rays all pass outside the sphere around the rest of the scene.
     pub sole_shapes: Vec<Option<u32>>,
 }
@@ -279,7 +285,7 @@ impl Spheres {
     }
 }
 
-/// Whether every vertex of `x`'s shape (triangles, at most [`MAX_WALL_PRIMS`]) lies behind the
+/// Whether every vertex of `x`'s shape (triangles, at most `MAX_WALL_PRIMS`) lies behind the
 /// plane through `x` facing `n`, or within a quarter of the ray offset in front of it: a ray
 /// leaving `x` on `n`'s side stays at least its offset away from the shape.
 fn wall_behind(scene: &Scene, x: &Interaction, n: Vec3A) -> bool {
