@@ -538,8 +538,8 @@ impl NlosTracer<'_> {
         let first;
         let v = match (depth, self.camera) {
             (0, None) => self.scan_vertices[pixel].as_ref(),
-            (0, Some(_)) => {
-                first = self.first_vertex(pixel, rng);
+            (0, Some(camera)) => {
+                first = self.camera_vertex(camera, pixel, rng);
                 first.as_ref()
             }
             _ => path.at.as_ref(),
