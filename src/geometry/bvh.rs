@@ -22,7 +22,7 @@
 //!   to the scene), which is conservative and few nodes for a ray along an axis.
 
 use super::small_scene::{Packs, Query, SmallScene};
-use super::{Hit, Prim, intersect_triangle, watertight_shear};
+use super::{Hit, Prim, Watertight, intersect_triangle};
 use glam::{BVec4A, Vec3A, Vec4};
 use std::cell::RefCell;
 
@@ -224,11 +224,11 @@ impl Shear4 {
     #[inline]
     fn new(o: Vec3A, d: Vec3A) -> Self {
         // The permutation and shear of `intersect_triangle`.
-        let ([kx, ky, kz], shear) = watertight_shear(d);
+        let w = Watertight::new(o, d);
         Self {
-            k: [kx, ky, kz],
-            ko: [o[kx], o[ky], o[kz]].map(Vec4::splat),
-            s: shear.map(Vec4::splat),
+            k: w.k,
+            ko: w.ko.map(Vec4::splat),
+            s: w.s.map(Vec4::splat),
         }
     }
 }
@@ -964,12 +964,18 @@ fn partition(part: &mut [Item], left: impl Fn(&Item) -> bool) -> usize {
     at
 }
 
-/// Brute-force closest hit over every primitive: the test oracle for [`Accel`].
+/// Brute-force closest hit over every primitive: the test oracle for [`Accel`] (and a camera
+/// pixel's few wall triangles), the ray set up for the watertight test once.
 pub fn intersect_brute(prims: &[Prim], o: Vec3A, d: Vec3A, tmin: f32, tmax: f32) -> Option<Hit> {
+    let w = Watertight::new(o, d);
     let mut best: Option<Hit> = None;
     for (i, p) in prims.iter().enumerate() {
         let lim = best.map_or(tmax, |h| h.t);
-        if let Some((t, b)) = p.intersect(o, d, tmin, lim) {
+        let found = match p {
+            Prim::Triangle { v, .. } => w.triangle(tmin, lim, v).map(|(t, b1, b2)| (t, [b1, b2])),
+            _ => p.intersect(o, d, tmin, lim),
+        };
+        if let Some((t, b)) = found {
             best = Some(Hit {
                 t,
                 prim: i as u32,

@@ -11,7 +11,7 @@ use crate::math::{RAY_EPS, SHADOW_EPS};
 use crate::sampling::{
     square_to_uniform_disk_concentric, square_to_uniform_sphere, square_to_uniform_triangle,
 };
-use glam::{Affine3A, Vec2, Vec3A};
+use glam::{Affine3A, Vec2, Vec3A, Vec3Swizzles};
 
 /// A ray-traceable primitive in world space.
 #[derive(Clone, Copy, Debug)]
@@ -87,7 +87,7 @@ impl Interaction {
 /// The ray-dependent part of the watertight triangle test: the axes permuted so that the largest
 /// |d| component comes last (z), and the shear (sx, sy, sz) that maps `d` to +z.
 #[inline]
-pub(crate) fn watertight_shear(d: Vec3A) -> ([usize; 3], [f32; 3]) {
+fn watertight_shear(d: Vec3A) -> ([usize; 3], [f32; 3]) {
     let ad = d.abs();
     let kz = if ad.x > ad.y {
         if ad.x > ad.z { 0 } else { 2 }
@@ -103,11 +103,84 @@ pub(crate) fn watertight_shear(d: Vec3A) -> ([usize; 3], [f32; 3]) {
     ([kx, ky, kz], [-d[kx] / d[kz], -d[ky] / d[kz], 1.0 / d[kz]])
 }
 
-/// Watertight ray–triangle test (Woop, Benthin and Wald 2013, "Watertight ray/triangle
-/// intersection"; the form of pbrt-v4's `IntersectTriangle`): translate to the ray origin, permute
-/// so the dominant direction axis is z, shear, and evaluate the edge functions, falling back to f64
-/// when one is exactly zero. Rays through shared edges and vertices never slip between triangles.
-/// Returns `(t, b1, b2)`.
+/// A ray set up for the watertight test ([`intersect_triangle`]) once, to test many triangles:
+/// the axes permuted so that z is the dominant direction component, the permuted origin and the
+/// shear.
+#[derive(Clone, Copy)]
+pub struct Watertight {
+    /// The permutation (x, y, z from these axes).
+    pub k: [usize; 3],
+    /// The origin, permuted.
+    pub ko: [f32; 3],
+    /// The shear (sx, sy, sz).
+    pub s: [f32; 3],
+}
+
+impl Watertight {
+    /// The set-up of the ray `o + t d`.
+    #[inline]
+    pub fn new(o: Vec3A, d: Vec3A) -> Self {
+        let (k, s) = watertight_shear(d);
+        let o = o.to_array();
+        Self {
+            k,
+            ko: k.map(|a| o[a]),
+            s,
+        }
+    }
+
+    /// Watertight ray–triangle test (Woop, Benthin and Wald 2013, "Watertight ray/triangle
+    /// intersection"; the form of pbrt-v4's `IntersectTriangle`): translate to the ray origin,
+    /// permute so the dominant direction axis is z, shear, and evaluate the edge functions,
+    /// falling back to f64 when one is exactly zero. Rays through shared edges and vertices never
+    /// slip between triangles. Returns `(t, b1, b2)`. In scalars read from arrays: `Vec3A`'s
+    /// `Index` branches on the component, and its lanes serve no purpose here.
+    #[inline(always)]
+    pub fn triangle(&self, tmin: f32, tmax: f32, p: &[Vec3A; 3]) -> Option<(f32, f32, f32)> {
+        let ([ox, oy, oz], [sx, sy, sz]) = (self.ko, self.s);
+        // Translate vertices to the ray origin, permute and shear. The permutation is a rotation
+        // of the axes (x, y, z from k = (z + 1, z + 2, z) mod 3): a swizzle, no indexing.
+        let kz = self.k[2];
+        let shear = |v: &Vec3A| {
+            let v = match kz {
+                0 => v.yzx(),
+                1 => v.zxy(),
+                _ => *v,
+            };
+            let z = v.z - oz;
+            (v.x - ox + sx * z, v.y - oy + sy * z, z * sz)
+        };
+        let (p0, p1, p2) = (shear(&p[0]), shear(&p[1]), shear(&p[2]));
+        // Edge functions; recompute in double precision when any is exactly zero.
+        let mut e0 = p1.0 * p2.1 - p1.1 * p2.0;
+        let mut e1 = p2.0 * p0.1 - p2.1 * p0.0;
+        let mut e2 = p0.0 * p1.1 - p0.1 * p1.0;
+        if e0 == 0.0 || e1 == 0.0 || e2 == 0.0 {
+            let f = |a: (f32, f32, f32), b: (f32, f32, f32)| {
+                (a.0 as f64 * b.1 as f64 - a.1 as f64 * b.0 as f64) as f32
+            };
+            e0 = f(p1, p2);
+            e1 = f(p2, p0);
+            e2 = f(p0, p1);
+        }
+        if (e0 < 0.0 || e1 < 0.0 || e2 < 0.0) && (e0 > 0.0 || e1 > 0.0 || e2 > 0.0) {
+            return None;
+        }
+        let det = e0 + e1 + e2;
+        if det == 0.0 {
+            return None;
+        }
+        let inv_det = 1.0 / det;
+        let t = (e0 * p0.2 + e1 * p1.2 + e2 * p2.2) * inv_det;
+        if !(t > tmin && t < tmax) {
+            return None;
+        }
+        Some((t, e1 * inv_det, e2 * inv_det))
+    }
+}
+
+/// The watertight test ([`Watertight::triangle`]) of one ray against one triangle.
+#[inline]
 pub fn intersect_triangle(
     o: Vec3A,
     d: Vec3A,
@@ -115,37 +188,7 @@ pub fn intersect_triangle(
     tmax: f32,
     p: &[Vec3A; 3],
 ) -> Option<(f32, f32, f32)> {
-    let ([kx, ky, kz], [sx, sy, sz]) = watertight_shear(d);
-    let perm = |v: Vec3A| Vec3A::new(v[kx], v[ky], v[kz]);
-    // Translate vertices to the ray origin, permute and shear.
-    let shear = |v: Vec3A| {
-        let v = perm(v - o);
-        Vec3A::new(v.x + sx * v.z, v.y + sy * v.z, v.z * sz)
-    };
-    let (p0, p1, p2) = (shear(p[0]), shear(p[1]), shear(p[2]));
-    // Edge functions; recompute in double precision when any is exactly zero.
-    let mut e0 = p1.x * p2.y - p1.y * p2.x;
-    let mut e1 = p2.x * p0.y - p2.y * p0.x;
-    let mut e2 = p0.x * p1.y - p0.y * p1.x;
-    if e0 == 0.0 || e1 == 0.0 || e2 == 0.0 {
-        let f = |a: Vec3A, b: Vec3A| (a.x as f64 * b.y as f64 - a.y as f64 * b.x as f64) as f32;
-        e0 = f(p1, p2);
-        e1 = f(p2, p0);
-        e2 = f(p0, p1);
-    }
-    if (e0 < 0.0 || e1 < 0.0 || e2 < 0.0) && (e0 > 0.0 || e1 > 0.0 || e2 > 0.0) {
-        return None;
-    }
-    let det = e0 + e1 + e2;
-    if det == 0.0 {
-        return None;
-    }
-    let inv_det = 1.0 / det;
-    let t = (e0 * p0.z + e1 * p1.z + e2 * p2.z) * inv_det;
-    if !(t > tmin && t < tmax) {
-        return None;
-    }
-    Some((t, e1 * inv_det, e2 * inv_det))
+    Watertight::new(o, d).triangle(tmin, tmax, p)
 }
 
 impl Prim {

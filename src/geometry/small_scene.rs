@@ -17,7 +17,7 @@
 //! another architecture) uses the BVH.
 
 use super::bvh::SLAB_PAD;
-use super::{Hit, Prim, intersect_triangle, watertight_shear};
+use super::{Hit, Prim, Watertight, intersect_triangle};
 use glam::Vec3A;
 use std::ops::{BitAnd, BitOr, Not};
 
@@ -66,14 +66,6 @@ pub struct SmallScene {
     isa: Isa,
 }
 
-/// The watertight test's ray: the axes permuted so that z is the dominant direction component,
-/// the permuted origin and the shear (the set-up of [`intersect_triangle`]).
-struct Shear {
-    k: [usize; 3],
-    ko: [f32; 3],
-    s: [f32; 3],
-}
-
 /// Which packs a [`Query`] scans.
 #[derive(Clone, Copy, Debug)]
 pub enum Packs {
@@ -116,7 +108,7 @@ impl Pack {
     /// The watertight test on lanes `at..at + V::WIDTH` in a vector `V`, each lane with the
     /// operations of [`intersect_triangle`] in its order.
     #[inline(always)]
-    fn test<V: Wide>(&self, at: usize, sh: &Shear, tmin: f32, tmax: f32) -> Lanes<V> {
+    fn test<V: Wide>(&self, at: usize, sh: &Watertight, tmin: f32, tmax: f32) -> Lanes<V> {
         let ko = [V::splat(sh.ko[0]), V::splat(sh.ko[1]), V::splat(sh.ko[2])];
         let s = [V::splat(sh.s[0]), V::splat(sh.s[1]), V::splat(sh.s[2])];
         let p0 = vertex(&self.v[0], at, sh.k, ko, s);
@@ -392,7 +384,7 @@ impl SmallScene {
         if packs == 0 {
             return None;
         }
-        let sh = shear(o, d);
+        let sh = Watertight::new(o, d);
         let inf = V::splat(f32::INFINITY);
         let (mut t, mut b1, mut b2, mut prim) = (inf, inf, inf, inf);
         let (mut left, mut redo) = (packs, V::Mask::from_bits(0));
@@ -439,7 +431,7 @@ impl SmallScene {
     #[inline(never)]
     fn scan<V: Wide>(
         &self,
-        sh: &Shear,
+        sh: &Watertight,
         o: Vec3A,
         d: Vec3A,
         tmin: f32,
@@ -486,7 +478,7 @@ impl SmallScene {
         let Query {
             o, d, tmin, tmax, ..
         } = *q;
-        let sh = shear(o, d);
+        let sh = Watertight::new(o, d);
         let (mut hit, mut redo) = (false, false);
         let mut left = packs;
         while left != 0 {
@@ -691,20 +683,6 @@ fn vertex<V: Wide>(
         V::load(&v[k[1]], at).sub(ko[1]).add(s[1].mul(z)),
         z.mul(s[2]),
     ]
-}
-
-/// The watertight set-up of the ray `o + t d`.
-#[inline(always)]
-fn shear(o: Vec3A, d: Vec3A) -> Shear {
-    let (k, s) = watertight_shear(d);
-    Shear {
-        k,
-        ko: {
-            let o = o.to_array();
-            k.map(|a| o[a])
-        },
-        s,
-    }
 }
 
 /// The SIMD extensions of this CPU the scan is compiled for, widest first.
