@@ -447,7 +447,7 @@ fn render_by(
         "the transient (and its variance)",
     )?;
     pool(opts.threads)?.install(|| {
-        with_tracer!(scene, opts, plan, monitor, |tracer| {
+        with_tracer!(scene, opts, plan, monitor, 0..plan.pixels, |tracer| {
             let job = Sampling::new(tracer, plan, monitor);
             if plan.chunks == 1 {
                 // Each pixel accumulates in place, in sample order (a shared render's pixels
@@ -560,7 +560,7 @@ pub fn render_part(
     let n = (pixels.len() as u64 * (chunks.end - chunks.start)) as usize;
     plan.check_memory(opts, plan.bytes(n), "a part of the transient")?;
     pool(opts.threads)?.install(|| {
-        with_tracer!(scene, opts, plan, monitor, |tracer| {
+        with_tracer!(scene, opts, plan, monitor, pixels.clone(), |tracer| {
             Sampling::new(tracer, &plan, monitor).part(pixels, chunks)
         })
     })
@@ -682,11 +682,11 @@ fn normalise(plan: &Plan, buf: &mut [f32], sum: &[f64; 3], st: &mut [f32], n: u6
 
 /// Run `$body` with `$t` bound to the scene's tracer (each arm is compiled for its tracer type).
 macro_rules! with_tracer {
-    ($scene:expr, $opts:expr, $plan:expr, $monitor:expr, |$t:ident| $body:expr) => {
+    ($scene:expr, $opts:expr, $plan:expr, $monitor:expr, $pixels:expr, |$t:ident| $body:expr) => {
         match &$scene.setup {
             Setup::Nlos(_) => {
                 let shared = $plan.shared.then_some($plan.spp);
-                let $t = &NlosTracer::new($scene, $opts.mono, &$monitor.cancel, shared)?;
+                let $t = &NlosTracer::new($scene, $opts.mono, &$monitor.cancel, shared, $pixels)?;
                 $body
             }
             Setup::Los(los) => {

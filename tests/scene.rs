@@ -593,7 +593,7 @@ fn scan_cones_turn_down_only_rays_that_meet_nothing() {
         .iter()
         .map(|it| it.map(|it| (it, (scene.meter.origin - it.p).normalize(), 0.0)))
         .collect();
-    let cones = scan_cones(&scene, &scene.shape_bsdfs(true), &points);
+    let cones = scan_cones(&scene, &scene.shape_bsdfs(true), &points, 0..points.len());
     let mut rng = Sampler::new(3, 0, 0);
     let (mut hits, mut turned_down, mut traced) = (0u64, 0u64, 0u64);
     for (point, cone) in points.iter().zip(&cones) {
@@ -636,9 +636,14 @@ fn camera_footprint_cones_turn_down_only_rays_that_meet_nothing() {
         .clone()
         .expect("a camera");
     let (w, h) = (scene.meter.film.width, scene.meter.film.height);
-    let seen_by = pixel_footprints(&scene, &camera, &AtomicBool::new(false));
+    let seen_by = pixel_footprints(&scene, &camera, &AtomicBool::new(false), 0..usize::MAX);
     let footprints = seen_by.points;
-    let cones = scan_cones(&scene, &scene.shape_bsdfs(true), &footprints);
+    let cones = scan_cones(
+        &scene,
+        &scene.shape_bsdfs(true),
+        &footprints,
+        0..footprints.len(),
+    );
     // The camera sees past the wall's edges in some pixels: those have no footprint.
     let seen = footprints.iter().flatten().count();
     assert!(seen > w * h / 2 && cones.iter().flatten().count() == seen);

@@ -23,6 +23,7 @@ use crate::scene::{AreaSampler, Scene};
 use crate::sensor::Camera;
 use crate::settings::{CaptureType, NlosSettings};
 use glam::Vec3A;
+use std::ops::Range;
 use std::sync::atomic::{AtomicBool, Ordering};
 
 /// The edge x → y between two surface points, as a hidden-geometry step (y drawn uniformly over an
@@ -129,11 +130,14 @@ impl<'a> NlosTracer<'a> {
     /// Prepare a render of `scene` in mono or rgb; `cancel` stops the preparation and long
     /// per-sample loops (an exhaustive capture's laser points) early. `shared_spp`: the render
     /// shares this many light subpaths among its scan points (it then learns their guide).
+    /// `pixels`: the pixels the render traces (a part's): what each pixel alone needs (its cone,
+    /// a camera pixel's footprint) is made for these only.
     pub fn new(
         scene: &'a Scene,
         mono: bool,
         cancel: &'a AtomicBool,
         shared_spp: Option<u64>,
+        pixels: Range<usize>,
     ) -> Result<Self> {
         let nlos = scene.nlos()?;
         let settings = &nlos.settings;
@@ -165,7 +169,7 @@ impl<'a> NlosTracer<'a> {
         // Where paths leave from: the scan points themselves, or each camera pixel's footprint.
         let (scan_points, sole_shapes) = match &nlos.camera {
             Some(camera) => {
-                let f = pixel_footprints(scene, camera, cancel);
+                let f = pixel_footprints(scene, camera, cancel, pixels.clone());
                 (f.points, f.sole_shapes)
             }
             None => (
@@ -176,7 +180,7 @@ impl<'a> NlosTracer<'a> {
                 Vec::new(),
             ),
         };
-        let scan_cones = scan_cones(scene, &bsdfs, &scan_points);
+        let scan_cones = scan_cones(scene, &bsdfs, &scan_points, pixels);
         let mut tracer = Self {
             scan_cones,
             sole_shapes,

@@ -29,6 +29,7 @@ use crate::scene::Scene;
 use crate::sensor::Camera;
 use glam::{Vec2, Vec3A};
 use std::f32::consts::{FRAC_PI_2, PI};
+use std::ops::Range;
 use std::sync::atomic::{AtomicBool, Ordering};
 
 /// Widening of every angle of a cone (radians) and of its ring's radii.
@@ -171,17 +172,20 @@ fn square_edge(phi: f32) -> Vec2 {
 /// Each scan point's cone — `(x, wi, reach)`: the point, the direction back to the sensor and how
 /// far from it on its shape a path's first vertex may lie — where its path's first direction is
 /// sampled by a diffuse BSDF about its geometric normal and its relay wall (a flat shape of at
-/// most `MAX_WALL_PRIMS` triangles) lies behind it; `None` for the other scan points.
+/// most `MAX_WALL_PRIMS` triangles) lies behind it; `None` for the other scan points and for
+/// those not in `pixels` (a render part's).
 pub fn scan_cones(
     scene: &Scene,
     bsdfs: &[Bsdf<Spectrum>],
     scan_points: &[Option<(Interaction, Vec3A, f32)>],
+    pixels: Range<usize>,
 ) -> Vec<Option<ScanCone>> {
     let mut spheres = Spheres::default();
     scan_points
         .iter()
-        .map(|point| {
-            let (x, wi, reach) = point.as_ref()?;
+        .enumerate()
+        .map(|(pixel, point)| {
+            let (x, wi, reach) = point.as_ref().filter(|_| pixels.contains(&pixel))?;
             let n = bsdfs[x.shape as usize].diffuse_normal(x.ns, *wi)?;
             if !(n == x.ng || n == -x.ng) || !wall_behind(scene, x, n) {
                 return None;
@@ -203,8 +207,14 @@ pub struct Footprints {
     pub sole_shapes: Vec<Option<u32>>,
 }
 
-/// The footprints of a camera's pixels. Stops early, all `None`, once `cancel` is set.
-pub fn pixel_footprints(scene: &Scene, camera: &Camera, cancel: &AtomicBool) -> Footprints {
+/// The footprints of a camera's pixels `pixels` (`None` for the others: a render part's). Stops
+/// early, all `None`, once `cancel` is set.
+pub fn pixel_footprints(
+    scene: &Scene,
+    camera: &Camera,
+    cancel: &AtomicBool,
+    pixels: Range<usize>,
+) -> Footprints {
     let (w, h) = (scene.meter.film.width, scene.meter.film.height);
     // The corner rays, shared by the pixels around each corner.
     let corner =
@@ -221,6 +231,11 @@ pub fn pixel_footprints(scene: &Scene, camera: &Camera, cancel: &AtomicBool) -> 
                 points: vec![None; w * h],
                 sole_shapes: vec![None; w * h],
             };
+        }
+        if !pixels.contains(&pixel) {
+            points.push(None);
+            sole_shapes.push(None);
+            continue;
         }
         let (px, py) = (pixel % w, pixel / w);
         let pixel_corners = [(px, py), (px + 1, py), (px, py + 1), (px + 1, py + 1)]

@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 import nlos_rs
-from nlos_rs import SceneError, scenes
+from nlos_rs import SceneError, _core, scenes
 
 distributed = pytest.importorskip("distributed")
 import nlos_rs.distributed as nd  # noqa: E402
@@ -64,6 +64,29 @@ def test_rgb_kernel_seed_and_scene_objects(client):
     scene.focus_laser_at(0.1, 0.0, 0.0)  # no longer what it was loaded from
     with pytest.raises(TypeError, match="focus_laser_at"):
         nd.render(scene, client=client, progress=False)
+
+
+def test_parts_equal_the_whole_where_paths_leave_by_cones(tmp_path):
+    # With hidden-geometry sampling off, a path's first direction is tested against its scan
+    # point's or camera pixel's cone, which a part makes for its own pixels only.
+    z_off = scenes.z_nlos_1corner(width=6, height=5, spp=256)
+    z_off["integrator"]["nlos_hidden_geometry_sampling"] = False
+    src = os.path.join(os.path.dirname(__file__), "..", "data", "mitransient", "transient-nlos")
+    os.symlink(os.path.abspath(os.path.join(src, "meshes")), tmp_path / "meshes")
+    xml = open(os.path.join(src, "nlos-z-simple.xml")).read()
+    off = xml.replace('name="nlos_hidden_geometry_sampling" value="true"', 'name="nlos_hidden_geometry_sampling" value="false"')
+    assert off != xml
+    (tmp_path / "off.xml").write_text(off)
+    for scene, spp in [(nlos_rs.load_dict(z_off), 256), (nlos_rs.load_file(str(tmp_path / "off.xml")), 64)]:
+        ref = nlos_rs.render(scene, spp=spp, threads=1, progress=False)
+        opts = {"mono": True, "spp": spp}
+        plan = _core.render_plan(scene, opts)
+        n, k = plan["pixels"], (0, plan["chunks"])
+        runs = [(0, 7), (7, 8), (8, n // 2), (n // 2, n)]
+        parts = [(p, k, *_core.render_part(scene, p, k, {**opts, "threads": 2})) for p in runs]
+        t, s = _core.assemble(scene, parts, opts)
+        assert np.array_equal(t.reshape(ref[1].shape), ref[1]) and np.array_equal(s.reshape(ref[0].shape), ref[0])
+        assert ref[1].sum() > 0
 
 
 def test_a_killed_worker_changes_nothing():
