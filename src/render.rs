@@ -680,7 +680,8 @@ fn normalise(plan: &Plan, buf: &mut [f32], sum: &[f64; 3], st: &mut [f32], n: u6
     }
 }
 
-/// Run `$body` with `$t` bound to the scene's tracer (each arm is compiled for its tracer type).
+/// Run `$body` with `$t` bound to the scene's tracer, prepared for the pixels `$pixels` (each arm
+/// is compiled for its tracer type).
 macro_rules! with_tracer {
     ($scene:expr, $opts:expr, $plan:expr, $monitor:expr, $pixels:expr, |$t:ident| $body:expr) => {
         match &$scene.setup {
