@@ -875,6 +875,8 @@ impl<'a, T: Tracer> Sampling<'a, T> {
                     *slot = None;
                     continue;
                 }
+                // The path is there now; the `else` is never taken. (Beginning the path here
+                // instead, by `get_or_insert_with`, ran the Cornell box 0.92× as fast.)
                 let Lane {
                     task,
                     rng,
