@@ -78,13 +78,8 @@ impl ScanCone {
         // (`Interaction::offset_origin`): seen from x, the points it can reach lie in the sphere
         // widened by as much.
         let radius = radius + reach + 2.0 * (1.0 + x.p.abs().max_element() + reach) * RAY_EPS;
-        let to = center - x.p;
-        let dist = to.length();
-        if !(dist > radius) {
-            return None;
-        }
-        let half = (radius / dist).asin() + MARGIN;
-        let axis = to / dist;
+        let (axis, angle) = seen_from(x.p, (center, radius))?;
+        let half = angle + MARGIN;
         let a = Frame::new(n).to_local(axis);
         let theta = a.z.clamp(-1.0, 1.0).acos();
         let (lo, hi) = (theta - half, theta + half);
@@ -268,12 +263,9 @@ pub fn pixel_footprints(
         let sole = (scene.shapes[x.shape as usize].prims.len() <= MAX_WALL_PRIMS)
             .then(|| spheres.around_all_but(scene, x.shape))
             .flatten()
-            .is_some_and(|(center, radius)| {
-                let to = center - r.o;
-                let dist = to.length();
-                dist > radius
-                    && r.d.dot(to / dist).clamp(-1.0, 1.0).acos()
-                        > spread + (radius / dist).asin() + 2.0 * MARGIN
+            .and_then(|sphere| seen_from(r.o, sphere))
+            .is_some_and(|(axis, angle)| {
+                r.d.dot(axis).clamp(-1.0, 1.0).acos() > spread + angle + 2.0 * MARGIN
             });
         sole_shapes.push(sole.then_some(x.shape));
     }
@@ -281,6 +273,14 @@ pub fn pixel_footprints(
         points,
         sole_shapes,
     }
+}
+
+/// The sphere `(center, radius)` seen from `p`: the unit direction to its centre and its angular
+/// radius; `None` where `p` is inside it.
+fn seen_from(p: Vec3A, (center, radius): (Vec3A, f32)) -> Option<(Vec3A, f32)> {
+    let to = center - p;
+    let dist = to.length();
+    (dist > radius).then(|| (to / dist, (radius / dist).asin()))
 }
 
 /// Bounding spheres around all shapes but one, made once per shape left out.
