@@ -9,6 +9,7 @@ use std::f32::consts::{FRAC_1_PI, PI};
 
 /// The uniform numbers of one sample: independent (PCG32, O'Neill 2014), or a scrambled
 /// low-discrepancy sequence ([`LowDiscrepancy`]) with PCG32 kept for draws from distributions.
+#[derive(Clone)]
 pub struct Sampler {
     rng: Pcg32,
     ld: Option<LowDiscrepancy>,
@@ -28,6 +29,7 @@ fn mix64(mut z: u64) -> u64 {
 /// a nested uniform scramble and whose coordinates are Owen-scrambled, each with its own hash of
 /// (stream key, k): every draw is uniform, every pair is stratified over a pixel's samples, and
 /// different draws are independent.
+#[derive(Clone)]
 struct LowDiscrepancy {
     key: u32,
     index: u32,

@@ -614,6 +614,62 @@ fn scan_cones_turn_down_only_rays_that_meet_nothing() {
     assert!(hits > 0 && turned_down > traced / 2);
 }
 
+/// mitransient's `nlos-z-simple.xml` (a perspective camera looks at the relay wall) and its camera.
+fn mitransient_camera_file() -> (Scene, nlos_rs::sensor::Camera) {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/data/mitransient/transient-nlos/nlos-z-simple.xml");
+    let props = nlos_rs::xml::load(&path, &Default::default()).expect("mitransient's file");
+    let scene = Scene::from_props(&props, path.parent().expect("a folder")).expect("valid scene");
+    let camera = scene
+        .nlos()
+        .expect("NLOS")
+        .camera
+        .clone()
+        .expect("a camera");
+    (scene, camera)
+}
+
+/// mitransient's camera file: every ray of a pixel counted as covered meets that pixel's sole
+/// shape, the flat relay wall — its corner, edge and centre rays and random ones — while the
+/// film holds pixels only some of whose rays meet it (past the wall's edges).
+#[test]
+fn covered_camera_pixels_meet_their_wall_with_every_ray() {
+    use nlos_rs::integrator::scan_cone::pixel_footprints;
+    use nlos_rs::sampling::ONE_MINUS_EPSILON;
+    use std::sync::atomic::AtomicBool;
+    let (scene, camera) = mitransient_camera_file();
+    let (w, h) = (scene.meter.film.width, scene.meter.film.height);
+    let seen_by = pixel_footprints(&scene, &camera, &AtomicBool::new(false), 0..usize::MAX);
+    let mut rng = Sampler::new(7, 0, 0);
+    let edge = [0.0, 0.5, ONE_MINUS_EPSILON];
+    let (mut covered, mut partly) = (0, 0);
+    for pixel in 0..w * h {
+        let jitters = edge
+            .iter()
+            .flat_map(|&x| edge.iter().map(move |&y| Vec2::new(x, y)))
+            .chain((0..400).map(|_| rng.next_2d()));
+        let meets: Vec<bool> = jitters
+            .map(|j| {
+                let r = camera.pixel_ray(pixel, w, h, j);
+                scene
+                    .accel
+                    .intersect(r.o, r.d, r.tmin, r.tmax)
+                    .is_some_and(|hit| {
+                        seen_by.sole_shapes[pixel] == Some(scene.prim_shape[hit.prim as usize])
+                    })
+            })
+            .collect();
+        if seen_by.covered[pixel] {
+            covered += 1;
+            assert!(meets.iter().all(|&m| m), "pixel {pixel}");
+        } else if meets.iter().any(|&m| m) && !meets.iter().all(|&m| m) {
+            partly += 1;
+        }
+    }
+    println!("covered {covered}, partly {partly} of {}", w * h);
+    assert!(covered > w * h / 2 && partly > 0);
+}
+
 /// mitransient's camera file: every pixel that sees the relay wall gets a footprint cone, which
 /// holds for the first vertices its jittered camera rays find, and each direction it turns down
 /// meets nothing; where a pixel's rays can meet the wall alone, its triangles alone give the hit
@@ -625,16 +681,7 @@ fn camera_footprint_cones_turn_down_only_rays_that_meet_nothing() {
     use nlos_rs::math::Frame;
     use nlos_rs::sampling::square_to_cosine_hemisphere;
     use std::sync::atomic::AtomicBool;
-    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("tests/data/mitransient/transient-nlos/nlos-z-simple.xml");
-    let props = nlos_rs::xml::load(&path, &Default::default()).expect("mitransient's file");
-    let scene = Scene::from_props(&props, path.parent().expect("a folder")).expect("valid scene");
-    let camera = scene
-        .nlos()
-        .expect("NLOS")
-        .camera
-        .clone()
-        .expect("a camera");
+    let (scene, camera) = mitransient_camera_file();
     let (w, h) = (scene.meter.film.width, scene.meter.film.height);
     let seen_by = pixel_footprints(&scene, &camera, &AtomicBool::new(false), 0..usize::MAX);
     let footprints = seen_by.points;

@@ -16,7 +16,7 @@ use crate::capture::{Capture, Spot};
 use crate::emitter::Projector;
 use crate::error::{NlosError, Result};
 use crate::geometry::bvh::intersect_brute;
-use crate::geometry::{Hit, Interaction};
+use crate::geometry::{Hit, Interaction, Prim};
 use crate::math::{COS_EPS, Spectrum};
 use crate::sampling::Sampler;
 use crate::scene::{AreaSampler, Scene};
@@ -103,6 +103,8 @@ pub struct NlosTracer<'a> {
     pub(super) delta: Vec<(bool, bool)>,
     /// Per shape: whether its BSDF scatters light on the back of the surface.
     behind: Vec<bool>,
+    /// Per shape: whether it is a flat sheet ([`Scene::is_flat`]), which cannot light itself.
+    flat: Vec<bool>,
     /// Laser irradiance (× scale).
     irradiance: Spectrum,
     /// Scan points and laser spots.
@@ -114,6 +116,9 @@ pub struct NlosTracer<'a> {
     scan_cones: Vec<Option<ScanCone>>,
     /// Per camera pixel, the one small shape its rays can meet, if only one.
     sole_shapes: Vec<Option<u32>>,
+    /// Per camera pixel, whether its cone judges a path's first direction before the path's
+    /// first vertex is found ([`Self::turned_down_first`]).
+    cone_first: Vec<bool>,
     /// The scan points' bounding box (without a camera).
     pub(super) scan_box: Option<[Vec3A; 2]>,
     /// A perspective camera as the sensor, instead of the scan points.
@@ -167,10 +172,10 @@ impl<'a> NlosTracer<'a> {
                 .collect(),
         };
         // Where paths leave from: the scan points themselves, or each camera pixel's footprint.
-        let (scan_points, sole_shapes) = match &nlos.camera {
+        let (scan_points, sole_shapes, covered) = match &nlos.camera {
             Some(camera) => {
                 let f = pixel_footprints(scene, camera, cancel, pixels.clone());
-                (f.points, f.sole_shapes)
+                (f.points, f.sole_shapes, f.covered)
             }
             None => (
                 scan_vertices
@@ -178,12 +183,14 @@ impl<'a> NlosTracer<'a> {
                     .map(|v| v.map(|v| (v.it, v.wi, 0.0)))
                     .collect(),
                 Vec::new(),
+                Vec::new(),
             ),
         };
         let scan_cones = scan_cones(scene, &bsdfs, &scan_points, pixels);
         let mut tracer = Self {
             scan_cones,
             sole_shapes,
+            cone_first: Vec::new(),
             scene,
             settings,
             laser: &nlos.laser,
@@ -192,6 +199,7 @@ impl<'a> NlosTracer<'a> {
                 .map(|b| (b.is_delta(), b.has_delta()))
                 .collect(),
             behind: bsdfs.iter().map(Bsdf::scatters_behind).collect(),
+            flat: (0..scene.shapes.len()).map(|s| scene.is_flat(s)).collect(),
             bsdfs,
             irradiance: nlos.laser.irradiance.spectrum(mono),
             scan_vertices,
@@ -208,6 +216,14 @@ impl<'a> NlosTracer<'a> {
             hidden,
             guide: None,
         };
+        tracer.cone_first = covered
+            .iter()
+            .zip(&scan_points)
+            .enumerate()
+            .map(|(pixel, (&covered, point))| {
+                covered && point.is_some_and(|(x, wi, _)| tracer.bare_first_vertex(pixel, &x, wi))
+            })
+            .collect();
         // The guide's pilot: a quarter of the render's light subpaths, 256 to 4,096 points.
         if let (Some(spp), Some(hg)) = (shared_spp, hidden)
             && settings.visibility_guiding
@@ -270,6 +286,11 @@ impl<'a> NlosTracer<'a> {
     ) {
         let (x, wi, beta, opl, eta) = (&v.it, v.wi, v.beta, v.opl, v.eta);
         if spot.radiance == Some(Spectrum::ZERO) || spot.incident == Spectrum::ZERO {
+            return;
+        }
+        // A vertex on the spot's own flat wall: the connection grazes both ends (cosines of zero,
+        // which rounding would make a few 1e-8 either way).
+        if x.shape == spot.it.shape && self.flat[x.shape as usize] {
             return;
         }
         let u = spot.it.p - x.p;
@@ -411,6 +432,62 @@ impl<'a> NlosTracer<'a> {
         }
     }
 
+    /// Whether a camera pixel whose every ray meets one flat sheet (of which `x` is the central
+    /// ray's point, `wi` the direction back from it) has its paths' first vertex there needed
+    /// only for their next direction: the first bounce connects nothing (the laser spots lie on
+    /// that sheet, or no such connection is kept), samples that direction from the BSDF about
+    /// the normal of the pixel's cone whatever triangle is met, and draws nothing before it.
+    fn bare_first_vertex(&self, pixel: usize, x: &Interaction, wi: Vec3A) -> bool {
+        let (st, shape) = (self.settings, x.shape as usize);
+        let offset = if st.laser_sampling { 2 } else { 0 };
+        let connects_nothing = !st.keep(offset)
+            || (st.laser_sampling
+                && self.flat[shape]
+                && self.capture.spots.iter().all(|s| s.it.shape == x.shape));
+        let Some(cone) = self.scan_cones[pixel].as_ref() else {
+            return false;
+        };
+        let flip = if self.scene.shape_flip[shape] {
+            -1.0
+        } else {
+            1.0
+        };
+        let drawn_about_cone = self.scene.prims[self.scene.shapes[shape].prims.clone()]
+            .iter()
+            .all(|p| match p {
+                Prim::Triangle { n, .. } => self.bsdfs[shape]
+                    .diffuse_normal(*n * flip, wi)
+                    .is_some_and(|n| n.dot(wi) > 0.0 && cone.drawn_about(n)),
+                _ => false,
+            });
+        connects_nothing
+            && drawn_about_cone
+            && self.hidden.is_none()
+            && st.max_depth >= 2
+            && st.filter_depth.is_none_or(|f| offset < f)
+    }
+
+    /// With a camera, whether the path's first direction is turned down by its pixel's cone
+    /// before its first vertex is found, where that vertex is needed for nothing else
+    /// ([`Self::bare_first_vertex`]). It reads the random numbers the path would draw, the
+    /// jitter and then the BSDF's square sample, and takes them only if the path ends.
+    #[inline(always)]
+    fn turned_down_first(&self, pixel: usize, rng: &mut Sampler) -> bool {
+        let Some(cone) = self.scan_cones[pixel]
+            .as_ref()
+            .filter(|_| self.cone_first[pixel])
+        else {
+            return false;
+        };
+        let mut ahead = rng.clone();
+        ahead.next_2d();
+        if cone.may_reach_square(ahead.next_2d()) {
+            return false;
+        }
+        *rng = ahead;
+        true
+    }
+
     /// [`Self::first_vertex`] with a camera (out of line: the scan points' case stays small
     /// where it is inlined).
     #[inline(never)]
@@ -543,6 +620,9 @@ impl NlosTracer<'_> {
         let v = match (depth, self.camera) {
             (0, None) => self.scan_vertices[pixel].as_ref(),
             (0, Some(camera)) => {
+                if self.turned_down_first(pixel, rng) {
+                    return false;
+                }
                 first = self.camera_vertex(camera, pixel, rng);
                 first.as_ref()
             }

@@ -23,7 +23,7 @@
 //! ([`Footprints::sole_shapes`]).
 
 use crate::bsdf::Bsdf;
-use crate::geometry::{Interaction, Prim};
+use crate::geometry::{Interaction, Prim, Ray};
 use crate::math::{Frame, RAY_EPS, Spectrum};
 use crate::scene::Scene;
 use crate::sensor::Camera;
@@ -200,6 +200,10 @@ pub struct Footprints {
     /// Per pixel, the one shape (of at most `MAX_WALL_PRIMS` primitives) its rays can meet,
     /// where the pixel's rays all pass outside the sphere around the rest of the scene.
     pub sole_shapes: Vec<Option<u32>>,
+    /// Per pixel with a sole shape, whether every one of its rays meets that shape: a flat sheet
+    /// ([`Scene::is_flat`]) whose outline lies clear of the pixel's footprint, within the
+    /// camera's clipping range.
+    pub covered: Vec<bool>,
 }
 
 /// The footprints of a camera's pixels `pixels` (`None` for the others: a render part's). Stops
@@ -219,17 +223,24 @@ pub fn pixel_footprints(
         .map(|(i, j)| corner(i, j))
         .collect();
     let mut spheres = Spheres::default();
-    let (mut points, mut sole_shapes) = (Vec::with_capacity(w * h), Vec::with_capacity(w * h));
+    let mut outlines: Vec<(u32, Option<Vec<[Vec3A; 2]>>)> = Vec::new();
+    let (mut points, mut sole_shapes, mut covered) = (
+        Vec::with_capacity(w * h),
+        Vec::with_capacity(w * h),
+        Vec::with_capacity(w * h),
+    );
     for pixel in 0..w * h {
         if pixel % 4096 == 4095 && cancel.load(Ordering::Relaxed) {
             return Footprints {
                 points: vec![None; w * h],
                 sole_shapes: vec![None; w * h],
+                covered: vec![false; w * h],
             };
         }
         if !pixels.contains(&pixel) {
             points.push(None);
             sole_shapes.push(None);
+            covered.push(false);
             continue;
         }
         let (px, py) = (pixel % w, pixel / w);
@@ -239,6 +250,7 @@ pub fn pixel_footprints(
         let Some(hit) = scene.accel.intersect(r.o, r.d, r.tmin, r.tmax) else {
             points.push(None);
             sole_shapes.push(None);
+            covered.push(false);
             continue;
         };
         let x = scene.interaction(r.o, r.d, &hit);
@@ -268,11 +280,113 @@ pub fn pixel_footprints(
                 r.d.dot(axis).clamp(-1.0, 1.0).acos() > spread + angle + 2.0 * MARGIN
             });
         sole_shapes.push(sole.then_some(x.shape));
+        covered.push(
+            sole && {
+                let outline = match outlines.iter().position(|(s, _)| *s == x.shape) {
+                    Some(k) => &outlines[k].1,
+                    None => {
+                        let outline = scene
+                            .is_flat(x.shape as usize)
+                            .then(|| flat_outline(scene, x.shape));
+                        outlines.push((x.shape, outline));
+                        &outlines[outlines.len() - 1].1
+                    }
+                };
+                outline.as_ref().is_some_and(|outline| {
+                    let quad = [0, 1, 3, 2].map(|k| pixel_corners[k]);
+                    meets_inside(camera, &x, quad, outline)
+                })
+            },
+        );
     }
     Footprints {
         points,
         sole_shapes,
+        covered,
     }
+}
+
+/// The outline of a flat shape's triangles: each edge not shared by two triangles on either side
+/// of it (the same two vertices).
+fn flat_outline(scene: &Scene, shape: u32) -> Vec<[Vec3A; 2]> {
+    let prims = &scene.prims[scene.shapes[shape as usize].prims.clone()];
+    let key = |v: Vec3A| v.to_array().map(f32::to_bits);
+    // Each edge, its vertices in order of their bits, with the third vertex of every triangle on it.
+    let mut edges: Vec<([Vec3A; 2], Vec<Vec3A>)> = Vec::new();
+    for p in prims {
+        let Prim::Triangle { v, .. } = p else {
+            continue;
+        };
+        for (a, b, c) in [(0, 1, 2), (1, 2, 0), (2, 0, 1)] {
+            let e = if key(v[a]) <= key(v[b]) {
+                [v[a], v[b]]
+            } else {
+                [v[b], v[a]]
+            };
+            match edges.iter_mut().find(|(f, _)| f.map(key) == e.map(key)) {
+                Some((_, thirds)) => thirds.push(v[c]),
+                None => edges.push((e, vec![v[c]])),
+            }
+        }
+    }
+    edges
+        .into_iter()
+        .filter(|([a, b], thirds)| {
+            let side = |c: &Vec3A| (*b - *a).cross(*c - *a);
+            !(thirds.len() == 2 && side(&thirds[0]).dot(side(&thirds[1])) < 0.0)
+        })
+        .map(|(e, _)| e)
+        .collect()
+}
+
+/// Whether every ray through the pixel with corner rays `quad` (in order around it) meets the
+/// flat shape with outline `outline` whose point `x` the central ray meets: the rays meet its
+/// plane ahead, within the camera's clipping range, in a quadrilateral that holds `x` and that
+/// no edge of the outline comes near (so that it lies within the shape).
+fn meets_inside(camera: &Camera, x: &Interaction, quad: [&Ray; 4], outline: &[[Vec3A; 2]]) -> bool {
+    let n = x.ng;
+    let to_plane = n.dot(x.p - camera.origin);
+    // The rays' distance to the plane is at least its distance from the pinhole, and at most the
+    // corners' (1/t is concave over the pixel's directions ahead); a ray's near clip is at
+    // most the corners' (it grows with the film coordinates' length).
+    let mut corners = [Vec3A::ZERO; 4];
+    let (mut t_far, mut near) = (0.0f32, 0.0f32);
+    for (c, r) in corners.iter_mut().zip(quad) {
+        let t = to_plane / n.dot(r.d);
+        if !(t > 0.0 && t.is_finite()) {
+            return false;
+        }
+        *c = r.o + r.d * t;
+        t_far = t_far.max(t);
+        near = near.max(r.tmin);
+    }
+    let dist = (camera.origin - x.p).length();
+    if !(to_plane.abs() > (near * (1.0 + MARGIN)).max(MARGIN * dist)
+        && t_far * (1.0 + MARGIN) < camera.clip[1])
+    {
+        return false;
+    }
+    // Separating axes in the plane (Gottschalk et al. 1996): the normals of the quadrilateral's
+    // edges and of the outline edge's; an edge separated from it by `gap` along one of them
+    // cannot reach it.
+    let gap = 1e-4 * (1.0 + x.p.abs().max_element());
+    let span = |axis: Vec3A, points: &[Vec3A]| {
+        points
+            .iter()
+            .map(|p| axis.dot(*p))
+            .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), d| {
+                (lo.min(d), hi.max(d))
+            })
+    };
+    let apart = |axis: Vec3A, edge: &[Vec3A; 2]| {
+        let axis = axis.normalize_or_zero();
+        let ((q0, q1), (e0, e1)) = (span(axis, &corners), span(axis, edge));
+        axis != Vec3A::ZERO && (e0 > q1 + gap || e1 < q0 - gap)
+    };
+    outline.iter().all(|edge| {
+        (0..4).any(|k| apart(n.cross(corners[(k + 1) % 4] - corners[k]), edge))
+            || apart(n.cross(edge[1] - edge[0]), edge)
+    })
 }
 
 /// The sphere `(center, radius)` seen from `p`: the unit direction to its centre and its angular

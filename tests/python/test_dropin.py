@@ -298,6 +298,30 @@ def test_mitransient_camera_nlos_examples(peer, name):
     assert res["agree"] and abs(ratio - 1) < 0.03, (res, ratio)
 
 
+@pytest.mark.parametrize("sampler", ["independent", "stratified"])
+def test_camera_paths_judged_before_their_first_vertex_change_nothing(tmp_path, sampler):
+    """With hidden-geometry sampling off, a camera pixel whose every ray meets the flat relay wall
+    tests a path's first direction against its cone before it finds the path's first vertex (the
+    laser spot lies on that wall, so nothing is connected from there). A small rectangle behind
+    the wall, which no path reaches, takes every cone away: both renders must be the same bit for
+    bit, on mitransient's file and on a film that also has pixels past the wall's edges."""
+    src = DATA / "transient-nlos"
+    (tmp_path / "meshes").symlink_to(src / "meshes")
+    off = (src / "nlos-z-simple.xml").read_text().replace(*HGS_OFF)
+    behind = ('<shape type="rectangle"><transform name="to_world"><scale value="0.1"/>'
+              '<translate value="0 0 -0.05"/></transform></shape></scene>')
+    small = off.replace('name="width" value="32"', 'name="width" value="7"').replace(
+        'name="height" value="32"', 'name="height" value="5"')
+    for xml in (off, small):
+        renders = []
+        for k, text in enumerate((xml, xml.replace("</scene>", behind))):
+            (tmp_path / f"{k}.xml").write_text(text)
+            scene = nlos_rs.load_file(str(tmp_path / f"{k}.xml"))
+            renders.append(render(scene, spp=64, threads=2, sampler=sampler))
+        (s0, t0), (s1, t1) = renders
+        assert np.array_equal(t0, t1) and np.array_equal(s0, s1) and t0.sum() > 0
+
+
 # ---- 7. phasor_hdr_film
 
 
