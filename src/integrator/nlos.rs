@@ -447,11 +447,7 @@ impl<'a> NlosTracer<'a> {
         let Some(cone) = self.scan_cones[pixel].as_ref() else {
             return false;
         };
-        let flip = if self.scene.shape_flip[shape] {
-            -1.0
-        } else {
-            1.0
-        };
+        let flip = self.scene.normal_sign(shape);
         let drawn_about_cone = self.scene.prims[self.scene.shapes[shape].prims.clone()]
             .iter()
             .all(|p| match p {

@@ -20,7 +20,9 @@
 //! its cone is made from the central ray's point with the sphere widened by the footprint's reach
 //! ([`pixel_footprints`]), and holds for a first vertex on that shape within it. Where the cone of
 //! a pixel's own rays passes outside the sphere, the camera ray can meet the wall alone
-//! ([`Footprints::sole_shapes`]).
+//! ([`Footprints::sole_shapes`]), and where moreover the wall is a flat sheet whose outline lies
+//! clear of the pixel's footprint, every one of its rays meets it ([`Footprints::covered`]): a
+//! path's first direction can then be judged before its camera ray is traced.
 
 use crate::bsdf::Bsdf;
 use crate::geometry::{Interaction, Prim, Ray};

@@ -27,11 +27,7 @@ struct Entry {
 impl Entry {
     fn new(scene: &Scene, i: usize) -> Self {
         let shape = scene.prim_shape[i];
-        let sign = if scene.shape_flip[shape as usize] {
-            -1.0
-        } else {
-            1.0
-        };
+        let sign = scene.normal_sign(shape as usize);
         let lane = |v: Vec3A, w: f32| [v.x, v.y, v.z, w];
         let (v, n, flat) = match scene.prims[i] {
             Prim::Triangle { v, n } => (v, n, scene.prim_normals[i].is_none()),

@@ -128,6 +128,12 @@ impl Scene {
             .as_deref()
     }
 
+    /// −1 where `flip_normals` turns shape `shape`'s normals, else 1.
+    #[inline]
+    pub fn normal_sign(&self, shape: usize) -> f32 {
+        if self.shape_flip[shape] { -1.0 } else { 1.0 }
+    }
+
     /// Whether shape `shape` is a flat sheet shaded by its face normals: triangles without vertex
     /// normals, every vertex within rounding of one plane. No light goes from one of its points to
     /// another: the direction between them lies in the plane, at a cosine of zero to both.
@@ -174,11 +180,7 @@ impl Scene {
             (n[0] * (1.0 - b[0] - b[1]) + n[1] * b[0] + n[2] * b[1]).normalize_or(ng)
         });
         let shape = self.prim_shape[i];
-        let s = if self.shape_flip[shape as usize] {
-            -1.0
-        } else {
-            1.0
-        };
+        let s = self.normal_sign(shape as usize);
         Interaction {
             p,
             ng: ng * s,
@@ -222,8 +224,7 @@ impl Scene {
         })?;
         let t = self.shapes[wall].rectangle.unwrap_or(Transform::IDENTITY);
         let p = t.point(Vec3A::new(2.0 * uv.x - 1.0, 2.0 * uv.y - 1.0, 0.0));
-        let s = if self.shape_flip[wall] { -1.0 } else { 1.0 };
-        Ok((p, t.normal(Vec3A::Z) * s))
+        Ok((p, t.normal(Vec3A::Z) * self.normal_sign(wall)))
     }
 
     /// Aim the laser at a 3D point from its current origin (`mitr.nlos.focus_emitter_at_relay_wall_3dpoint`).
