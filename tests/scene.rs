@@ -638,6 +638,8 @@ fn covered_camera_pixels_meet_their_wall_with_every_ray() {
     use nlos_rs::sampling::ONE_MINUS_EPSILON;
     use std::sync::atomic::AtomicBool;
     let (scene, camera) = mitransient_camera_file();
+    // The relay wall (Plane.ply) is a flat sheet, the Z is not.
+    assert!(scene.is_flat(0) && !scene.is_flat(1));
     let (w, h) = (scene.meter.film.width, scene.meter.film.height);
     let seen_by = pixel_footprints(&scene, &camera, &AtomicBool::new(false), 0..usize::MAX);
     let mut rng = Sampler::new(7, 0, 0);

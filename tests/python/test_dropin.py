@@ -304,7 +304,8 @@ def test_camera_paths_judged_before_their_first_vertex_change_nothing(tmp_path, 
     tests a path's first direction against its cone before it finds the path's first vertex (the
     laser spot lies on that wall, so nothing is connected from there). A small rectangle behind
     the wall, which no path reaches, takes every cone away: both renders must be the same bit for
-    bit, on mitransient's file and on a film that also has pixels past the wall's edges."""
+    bit, on mitransient's file, on a film that also has pixels past the wall's edges, and with the
+    wall turned off the axes."""
     src = DATA / "transient-nlos"
     (tmp_path / "meshes").symlink_to(src / "meshes")
     off = (src / "nlos-z-simple.xml").read_text().replace(*HGS_OFF)
@@ -312,7 +313,12 @@ def test_camera_paths_judged_before_their_first_vertex_change_nothing(tmp_path, 
               '<translate value="0 0 -0.05"/></transform></shape></scene>')
     small = off.replace('name="width" value="32"', 'name="width" value="7"').replace(
         'name="height" value="32"', 'name="height" value="5"')
-    for xml in (off, small):
+    # The wall turned off the axes: its flatness and a connection within it are judged with rounding.
+    plane = '<string name="filename" value="meshes/Plane.ply"/>'
+    turned = off.replace(plane, plane + '<transform name="to_world"><rotate y="1" angle="7"/>'
+                                        '<rotate x="1" angle="3"/></transform>')
+    assert turned != off
+    for xml in (off, small, turned):
         renders = []
         for k, text in enumerate((xml, xml.replace("</scene>", behind))):
             (tmp_path / f"{k}.xml").write_text(text)
