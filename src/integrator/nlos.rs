@@ -290,7 +290,7 @@ impl<'a> NlosTracer<'a> {
         }
         // A vertex on the spot's own flat wall: the connection grazes both ends (cosines of zero,
         // which rounding would make a few 1e-8 either way).
-        if x.shape == spot.it.shape && self.flat[x.shape as usize] {
+        if self.flat[x.shape as usize] && x.shape == spot.it.shape {
             return;
         }
         let u = spot.it.p - x.p;
