@@ -246,8 +246,8 @@ HGS_OFF = ('<boolean name="nlos_hidden_geometry_sampling" value="true"/>',
 
 
 @pytest.mark.peer
-@pytest.mark.parametrize("name", ["nlos-z-simple.xml", "nlos-z-room.xml"])
-def test_mitransient_camera_nlos_examples(peer, name):
+@pytest.mark.parametrize("name", ["nlos-z-simple.xml", "nlos-z-room.xml", "nlos-z-simple.xml, BSDF sampling"])
+def test_mitransient_camera_nlos_examples(peer, name, tmp_path):
     """mitransient's examples (its notebook 2): a Blender export with a perspective camera as the
     NLOS sensor, PLY meshes, a twosided diffuse BSDF, capture_type as an XML integer and booleans
     written "False". Compared on 4x4-pixel block totals and the time profile; quantities below
@@ -257,11 +257,19 @@ def test_mitransient_camera_nlos_examples(peer, name):
     In the room, the walls' normals point out of it, so from the relay wall and the Z only the
     backs of the two-sided walls are seen: mitransient's hidden-geometry sampling (one-sided for
     every BSDF) drops that light, and there the reference is mitransient's BSDF sampling, which
-    has no facing test (mitransient's own hidden-geometry sampling is checked to be biased)."""
+    has no facing test (mitransient's own hidden-geometry sampling is checked to be biased).
+
+    The camera file with hidden-geometry sampling off (mitransient's plugin default) is compared as
+    well: most of its paths are judged by their pixel's cone before their camera ray is traced."""
     from nlos_rs.mitsuba_compat import import_mitransient
 
     mi, _ = import_mitransient("llvm_ad_mono")
-    path = DATA / "transient-nlos" / name
+    path = DATA / "transient-nlos" / name.split(",")[0]
+    if name.endswith("BSDF sampling"):
+        (tmp_path / "meshes").symlink_to(path.parent / "meshes")
+        off = tmp_path / path.name
+        off.write_text(path.read_text().replace(*HGS_OFF))
+        path = off
     # One path per pixel, as mitransient traces them (sample reuse, the default, is checked against
     # this estimator on the same file in test_sample_reuse.py; its correlated scan points make the
     # capture's total too noisy for the 3 % bound below). At 8× mitransient's spp: in the room our
@@ -273,7 +281,7 @@ def test_mitransient_camera_nlos_examples(peer, name):
         return np.array([np.array(mi.render(mi.load_file(str(file)), spp=512, seed=k)[1]) for k in range(REPS)])
 
     reference = theirs(path)
-    if name == "nlos-z-room.xml":
+    if path.name == "nlos-z-room.xml":
         bsdf_only = path.with_name("nlos-z-room_bsdf_sampling.xml")
         bsdf_only.write_text(path.read_text().replace(*HGS_OFF))
         try:
