@@ -469,10 +469,10 @@ impl<'a> NlosTracer<'a> {
     /// jitter and then the BSDF's square sample, and takes them only if the path ends.
     #[inline(always)]
     fn turned_down_first(&self, pixel: usize, rng: &mut Sampler) -> bool {
-        let Some(cone) = self.scan_cones[pixel]
-            .as_ref()
-            .filter(|_| self.cone_first[pixel])
-        else {
+        if !self.cone_first[pixel] {
+            return false;
+        }
+        let Some(cone) = self.scan_cones[pixel].as_ref() else {
             return false;
         };
         let mut ahead = rng.clone();
