@@ -256,18 +256,13 @@ pub fn pixel_footprints(
             continue;
         };
         let x = scene.interaction(r.o, r.d, &hit);
-        points.push((|| {
-            let mut reach = 0.0f32;
-            for c in pixel_corners {
-                let t = x.ng.dot(x.p - c.o) / x.ng.dot(c.d);
-                if !(t > 0.0 && t.is_finite()) {
-                    return None;
-                }
-                reach = reach.max((c.o + c.d * t - x.p).length());
-            }
+        // Where the corner rays meet x's plane, in order around the pixel.
+        let quad = plane_corners(&x, [0, 1, 3, 2].map(|k| pixel_corners[k]));
+        points.push(quad.as_ref().map(|quad| {
+            let reach = quad.iter().fold(0.0f32, |m, c| m.max((c.p - x.p).length()));
             let reach = reach * (1.0 + MARGIN) + 1e-6 * (1.0 + x.p.abs().max_element());
-            Some((x, (r.o - x.p).normalize(), reach))
-        })());
+            (x, (r.o - x.p).normalize(), reach)
+        }));
         // The pixel's rays lie within `spread` of its central one; they meet nothing but x's
         // shape if that cone passes outside the sphere around everything else.
         let spread = pixel_corners
@@ -294,10 +289,10 @@ pub fn pixel_footprints(
                         &outlines[outlines.len() - 1].1
                     }
                 };
-                outline.as_ref().is_some_and(|outline| {
-                    let quad = [0, 1, 3, 2].map(|k| pixel_corners[k]);
-                    meets_inside(camera, &x, quad, outline)
-                })
+                outline
+                    .as_ref()
+                    .zip(quad.as_ref())
+                    .is_some_and(|(outline, quad)| meets_inside(camera, &x, quad, outline))
             },
         );
     }
@@ -341,27 +336,51 @@ fn flat_outline(scene: &Scene, shape: u32) -> Vec<[Vec3A; 2]> {
         .collect()
 }
 
-/// Whether every ray through the pixel with corner rays `quad` (in order around it) meets the
-/// flat shape with outline `outline` whose point `x` the central ray meets: the rays meet its
-/// plane ahead, within the camera's clipping range, in a quadrilateral that holds `x` and that
-/// no edge of the outline comes near (so that it lies within the shape).
-fn meets_inside(camera: &Camera, x: &Interaction, quad: [&Ray; 4], outline: &[[Vec3A; 2]]) -> bool {
+/// Where a corner ray of a pixel meets the plane of the central ray's point.
+struct PlaneCorner {
+    /// The point.
+    p: Vec3A,
+    /// Its distance along the ray.
+    t: f32,
+    /// The ray's near clip.
+    tmin: f32,
+}
+
+/// Where the corner rays `rays` meet the plane of `x` (its geometric normal), each ahead; `None`
+/// where one does not.
+fn plane_corners(x: &Interaction, rays: [&Ray; 4]) -> Option<[PlaneCorner; 4]> {
+    let corners = rays.map(|r| {
+        let t = x.ng.dot(x.p - r.o) / x.ng.dot(r.d);
+        PlaneCorner {
+            p: r.o + r.d * t,
+            t,
+            tmin: r.tmin,
+        }
+    });
+    corners
+        .iter()
+        .all(|c| c.t > 0.0 && c.t.is_finite())
+        .then_some(corners)
+}
+
+/// Whether every ray through the pixel whose corner rays meet the plane of `x` (the central
+/// ray's point on a flat shape with outline `outline`) at `quad`, in order around it, meets that
+/// shape: the rays meet the plane within the camera's clipping range, in a quadrilateral that
+/// holds `x` and that no edge of the outline comes near (so that it lies within the shape).
+fn meets_inside(
+    camera: &Camera,
+    x: &Interaction,
+    quad: &[PlaneCorner; 4],
+    outline: &[[Vec3A; 2]],
+) -> bool {
     let n = x.ng;
     let to_plane = n.dot(x.p - camera.origin);
     // The rays' distance to the plane is at least its distance from the pinhole, and at most the
     // corners' (1/t is concave over the pixel's directions ahead); a ray's near clip is at
     // most the corners' (it grows with the film coordinates' length).
-    let mut corners = [Vec3A::ZERO; 4];
-    let (mut t_far, mut near) = (0.0f32, 0.0f32);
-    for (c, r) in corners.iter_mut().zip(quad) {
-        let t = to_plane / n.dot(r.d);
-        if !(t > 0.0 && t.is_finite()) {
-            return false;
-        }
-        *c = r.o + r.d * t;
-        t_far = t_far.max(t);
-        near = near.max(r.tmin);
-    }
+    let corners = quad.each_ref().map(|c| c.p);
+    let t_far = quad.iter().fold(0.0f32, |m, c| m.max(c.t));
+    let near = quad.iter().fold(0.0f32, |m, c| m.max(c.tmin));
     let dist = (camera.origin - x.p).length();
     if !(to_plane.abs() > (near * (1.0 + MARGIN)).max(MARGIN * dist)
         && t_far * (1.0 + MARGIN) < camera.clip[1])
