@@ -19,8 +19,8 @@ corners (five-vertex signal); Mitsuba's own mi.cornell_box() made transient (lin
 1×1 capture; rgb; mitransient's example files nlos-z-simple.xml (a perspective camera),
 nlos-z-room.xml (the Z among walls) and cornell-box/cbox_diffuse.xml (line of sight, 64×64), a
 confocal capture tal wrote (tests/data/tal021, unbounded depth), and the Z's confocal capture, the
-200k-triangle sphere (single and confocal) and mitransient's camera file with hidden-geometry
-sampling off (mitransient's plugin default; tal writes it on): BSDF sampling from the relay wall,
+200k-triangle sphere (single and confocal) and mitransient's camera and room files with
+hidden-geometry sampling off (mitransient's plugin default; tal writes it on): BSDF sampling from the relay wall,
 whose rays mostly miss the hidden object.
 mitransient's time is its render call with dr.eval + dr.sync_thread.
 """
@@ -144,6 +144,11 @@ def workloads(quick: bool):
         "mitransient_camera_file_bsdf": (lambda: (hgs_off_copy(data / "mitransient" / "transient-nlos" / "nlos-z-simple.xml",
                                                                scenes.cache_dir() / "bench_nlos-z-simple_hgs_off.xml"),
                                                   max(1, 4096 // div)), "mono"),
+        # mitransient's room with hidden-geometry sampling off: the walls surround the Z, so every
+        # direction from the relay wall meets something and no cone turns a path down.
+        "mitransient_room_file_bsdf": (lambda: (hgs_off_copy(data / "mitransient" / "transient-nlos" / "nlos-z-room.xml",
+                                                             scenes.cache_dir() / "bench_nlos-z-room_hgs_off.xml"),
+                                                max(1, 8192 // div)), "mono"),
     }
 
 
