@@ -20,8 +20,8 @@ corners (five-vertex signal); Mitsuba's own mi.cornell_box() made transient (lin
 nlos-z-room.xml (the Z among walls) and cornell-box/cbox_diffuse.xml (line of sight, 64×64), a
 confocal capture tal wrote (tests/data/tal021, unbounded depth), and the Z's confocal capture, the
 200k-triangle sphere (single and confocal) and mitransient's camera and room files with
-hidden-geometry sampling off (mitransient's plugin default; tal writes it on): BSDF sampling from the relay wall,
-whose rays mostly miss the hidden object.
+hidden-geometry sampling off (mitransient's plugin default; tal writes it on): BSDF sampling from
+the relay wall, whose rays mostly miss the hidden object (in the room, walls meet every one).
 mitransient's time is its render call with dr.eval + dr.sync_thread.
 """
 
