@@ -75,6 +75,29 @@ def hgs_off_copy(path: Path, out: Path) -> str:
     return str(out)
 
 
+def tal_bunny_confocal(out_dir: Path) -> str:
+    """tal's flagship example, `examples/render/1-bunny-confocal` (the scene of the one published
+    mitransient timing): the Stanford bunny as tal ships it (13,145 triangles, placed 1 m behind the
+    relay wall in the OBJ itself), a confocal 128×128 scan, 750 bins of 3 mm from 1.8 m, unbounded
+    depth, hidden-geometry sampling off, written as tal 0.21's generator writes a confocal scene
+    (tests/data/tal021/confocal.xml with tal's bunny configuration)."""
+    import gzip
+    import re
+
+    mesh = out_dir / "tal_bunny-single-1m.obj"
+    if not mesh.exists():
+        mesh.write_bytes(gzip.decompress((Path(__file__).resolve().parent / "data" / "tal_bunny-single-1m.obj.gz").read_bytes()))
+    text = (Path(__file__).resolve().parent.parent / "tests" / "data" / "tal021" / "confocal.xml").read_text()
+    text = text.replace('value="meshes/z.obj"', f'value="{mesh}"')
+    text = text.replace('<translate x="0.0" y="0.0" z="1.0"/>', '<translate x="0.0" y="0.0" z="0.0"/>')
+    text = text.replace('name="nlos_hidden_geometry_sampling" value="true"', 'name="nlos_hidden_geometry_sampling" value="false"')
+    for key, value in (("width", 128), ("height", 128), ("temporal_bins", 750), ("bin_width_opl", 0.003)):
+        text = re.sub(rf'(name="{key}" value=")[^"]*(")', rf"\g<1>{value}\g<2>", text)
+    out = out_dir / "bench_tal_bunny_confocal.xml"
+    out.write_text(text)
+    return str(out)
+
+
 def workloads(quick: bool):
     """name → (a function making the scene dict, variant); scenes are made only when run."""
     import nlos_rs
@@ -144,6 +167,8 @@ def workloads(quick: bool):
         "mitransient_camera_file_bsdf": (lambda: (hgs_off_copy(data / "mitransient" / "transient-nlos" / "nlos-z-simple.xml",
                                                                scenes.cache_dir() / "bench_nlos-z-simple_hgs_off.xml"),
                                                   max(1, 4096 // div)), "mono"),
+        # tal's bunny example as tal ships it (hidden-geometry sampling off, 128×128 confocal).
+        "tal_bunny_confocal_file": (lambda: (tal_bunny_confocal(scenes.cache_dir()), max(1, 256 // div)), "mono"),
         # mitransient's room with hidden-geometry sampling off: the walls surround the Z, so every
         # direction from the relay wall meets something and no cone turns a path down.
         "mitransient_room_file_bsdf": (lambda: (hgs_off_copy(data / "mitransient" / "transient-nlos" / "nlos-z-room.xml",
@@ -152,7 +177,7 @@ def workloads(quick: bool):
     }
 
 
-def cpu() -> str:
+def cpu_name() -> str:
     """The CPU's model name and widest SIMD extension (mitransient's LLVM backend runs sixteen lanes
     wide with AVX-512 and eight with AVX2, and the ratios move with it), from /proc/cpuinfo."""
     try:
@@ -212,7 +237,7 @@ def main() -> None:
                 print(out.splitlines()[0], flush=True)
         import nlos_rs
 
-        print(f"\n{cpu()}, {os.cpu_count()} cores, {args.threads} threads, "
+        print(f"\n{cpu_name()}, {os.cpu_count()} cores, {args.threads} threads, "
               f"nlos_rs {nlos_rs.__version__}, mitransient 1.3.1 (llvm_ad), best of {args.repeats}\n")
         print("| workload | paths | nlos_rs (M paths/s) | mitransient (M paths/s) | ratio | 1→2 threads, best | total | paired median | cores busy |")
         print("|---|---:|---:|---:|---:|---:|---:|---:|---:|")

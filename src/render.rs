@@ -453,9 +453,9 @@ fn render_by(
                 // Each pixel accumulates in place, in sample order (a shared render's pixels
                 // all together, light sample by light sample), then is finished: one film.
                 let (len, c) = (plan.pixel_len, plan.channels);
-                let mut transient = vec![0.0f32; plan.pixels * len];
+                let mut transient = zero_bins(plan.pixels * len);
                 let mut steady = vec![0.0f32; plan.pixels * c];
-                let mut variance = vec![0.0f32; if plan.variance { plan.pixels * len } else { 0 }];
+                let mut variance = zero_bins(if plan.variance { plan.pixels * len } else { 0 });
                 let mut sums = vec![[0.0f64; 3]; plan.pixels];
                 let mut samples = vec![plan.spp; plan.pixels];
                 let out = RunSums {
@@ -494,6 +494,23 @@ fn render_by(
             }
         })
     })
+}
+
+/// `n` zero bins for transient sums, each of their memory pages written once before the render
+/// adds to them. A fresh allocation's pages are mapped at first access; where that access is a
+/// read (a bin's `+=`), the kernel maps its shared zero page and, at the write that follows,
+/// replaces it and flushes the old mapping from every core the process runs on: an interrupt to
+/// the other cores for each 4 KiB page, which on a two-core VM doubled the fixed cost of a
+/// 128×128×750 render on two threads (50 to 100 ms). A first write maps each page once, with no
+/// flush. (The stores are opaque to the optimiser, which would otherwise drop them as zeros
+/// written over zeros.)
+fn zero_bins(n: usize) -> Vec<f32> {
+    const PAGE: usize = 4096 / std::mem::size_of::<f32>();
+    let mut bins = vec![0.0f32; n];
+    for i in (0..n).step_by(PAGE).chain(n.checked_sub(1)) {
+        bins[i] = std::hint::black_box(0.0);
+    }
+    bins
 }
 
 /// `tasks` slices of `len` of `buf`, or `tasks` times `None` when `buf` is empty (no variance).
@@ -573,15 +590,12 @@ pub fn assemble(plan: &Plan, parts: &[Part]) -> Result<Assembled> {
     let (c, len) = (plan.channels, plan.pixel_len);
     let first = parts.first().map_or(0, |p| p.pixels.start);
     let end = parts.last().map_or(0, |p| p.pixels.end);
-    let mut transient = vec![0.0f32; (end - first) * len];
-    let mut squares = vec![
-        0.0f32;
-        if plan.variance {
-            (end - first) * len
-        } else {
-            0
-        }
-    ];
+    let mut transient = zero_bins((end - first) * len);
+    let mut squares = zero_bins(if plan.variance {
+        (end - first) * len
+    } else {
+        0
+    });
     let mut steady = vec![0.0f32; (end - first) * c];
     let mut sums = vec![[0.0f64; 3]; end - first];
     // The next chunk each pixel expects.
@@ -1180,9 +1194,9 @@ impl<'a, T: Tracer> Sampling<'a, T> {
         let n = pixels.len() * (chunks.end - chunks.start) as usize;
         let len = self.plan.pixel_len;
         Part {
-            transient: vec![0.0f32; n * len],
+            transient: zero_bins(n * len),
             steady: vec![0.0f64; n * 3],
-            squares: vec![0.0f32; if self.plan.variance { n * len } else { 0 }],
+            squares: zero_bins(if self.plan.variance { n * len } else { 0 }),
             pixels,
             chunks,
         }
@@ -1199,11 +1213,8 @@ impl<'a, T: Tracer> Sampling<'a, T> {
             .map(|i| {
                 let chunk = chunks.start + i as u64;
                 let (first, end) = self.plan.chunk_samples(chunk);
-                let (mut t, mut st, mut sq) = (
-                    vec![0.0f32; n * len],
-                    vec![[0.0f64; 3]; n],
-                    vec![0.0f32; sq_len],
-                );
+                let (mut t, mut st, mut sq) =
+                    (zero_bins(n * len), vec![[0.0f64; 3]; n], zero_bins(sq_len));
                 let out = RunSums {
                     transient: &mut t,
                     steady: &mut st,
