@@ -20,7 +20,7 @@ corners (five-vertex signal); Mitsuba's own mi.cornell_box() made transient (lin
 nlos-z-room.xml (the Z among walls) and cornell-box/cbox_diffuse.xml (line of sight, 64×64), a
 confocal capture tal wrote (tests/data/tal021, unbounded depth), and the Z's confocal capture, the
 200k-triangle sphere (single and confocal) and mitransient's camera and room files with
-hidden-geometry sampling off (mitransient's plugin default; tal writes it on): BSDF sampling from
+hidden-geometry sampling off (the default of mitransient's plugin and of tal's generator): BSDF sampling from
 the relay wall, whose rays mostly miss the hidden object (in the room, walls meet every one).
 mitransient's time is its render call with dr.eval + dr.sync_thread.
 """
@@ -160,7 +160,7 @@ def workloads(quick: bool):
         "mitransient_cbox_file": (lambda: (str(data / "mitransient" / "cornell-box" / "cbox_diffuse.xml"),
                                            max(1, 256 // div), {"res": 64}), "mono"),
         "tal_confocal_file": (lambda: (str(data / "tal021" / "confocal.xml"), max(1, (1 << 19) // div)), "mono"),
-        # Hidden-geometry sampling off, as mitransient's plugin defaults (tal writes it on).
+        # Hidden-geometry sampling off, the default of mitransient's plugin and of tal's generator.
         "z_confocal_bsdf": (lambda: bsdf_sampling(z(4096, width=64, height=64, capture_type="confocal")), "mono"),
         "mesh_200k_bsdf": (lambda: bsdf_sampling(big()), "mono"),
         "mesh_200k_confocal_bsdf": (lambda: bsdf_sampling(big(capture_type="confocal")), "mono"),
