@@ -75,25 +75,46 @@ def hgs_off_copy(path: Path, out: Path) -> str:
     return str(out)
 
 
-def tal_bunny_confocal(out_dir: Path) -> str:
-    """tal's flagship example, `examples/render/1-bunny-confocal` (the scene of the one published
-    mitransient timing): the Stanford bunny as tal ships it (13,145 triangles, placed 1 m behind the
-    relay wall in the OBJ itself), a confocal 128×128 scan, 750 bins of 3 mm from 1.8 m, unbounded
-    depth, hidden-geometry sampling off, written as tal 0.21's generator writes a confocal scene
-    (tests/data/tal021/confocal.xml with tal's bunny configuration)."""
+def tal_example(out_dir: Path, example: str) -> str:
+    """One of tal's example scenes (its `examples/render/*/` configurations), written as tal 0.21's
+    generator writes a simultaneous confocal or exhaustive scan (tests/data/tal021, with the
+    example's mesh, scan and histogram), 750 bins of 3 mm, unbounded depth:
+
+    - `bunny_confocal`: `1-bunny-confocal`, the scene of the one published mitransient timing: the
+      Stanford bunny as tal ships it (13,145 triangles, placed 1 m behind the relay wall in the OBJ
+      itself), a confocal 128×128 scan from 1.8 m, hidden-geometry sampling off;
+    - `bunny_exhaustive`: `bunny-exhaustive-2x2x64x64`, the bunny seen from 64×64 scan points lit
+      from 2×2 laser points (tal renders one laser point at a time; here one simultaneous scan),
+      hidden-geometry sampling off;
+    - `plane_exhaustive`: `plane-exhaustive-16x16x16x16`, tal's 2 m plane 1 m behind the wall,
+      16×16 scan points × 16×16 laser points from 1.5 m (a 196 MB film), hidden-geometry sampling
+      on."""
     import gzip
     import re
 
-    mesh = out_dir / "tal_bunny-single-1m.obj"
-    if not mesh.exists():
-        mesh.write_bytes(gzip.decompress((Path(__file__).resolve().parent / "data" / "tal_bunny-single-1m.obj.gz").read_bytes()))
-    text = (Path(__file__).resolve().parent.parent / "tests" / "data" / "tal021" / "confocal.xml").read_text()
+    here = Path(__file__).resolve().parent
+    if example.startswith("bunny"):
+        mesh = out_dir / "tal_bunny-single-1m.obj"
+        if not mesh.exists():
+            mesh.write_bytes(gzip.decompress((here / "data" / "tal_bunny-single-1m.obj.gz").read_bytes()))
+        depth, hgs, start = 0.0, "false", 1.8
+    else:  # tal's wall-2m-z0.obj: a 2 m square at z = 0 facing -z (the relay wall), moved 1 m back
+        mesh = out_dir / "tal_wall-2m-z0.obj"
+        mesh.write_text("v 1 -1 0\nv -1 -1 0\nv 1 1 0\nv -1 1 0\nf 2 3 1\nf 2 4 3\n")
+        depth, hgs, start = 1.0, "true", 1.5
+    scan = {"bunny_confocal": ("confocal", 128, 0), "bunny_exhaustive": ("exhaustive", 64, 2),
+            "plane_exhaustive": ("exhaustive", 16, 16)}[example]
+    text = (here.parent / "tests" / "data" / "tal021" / f"{scan[0]}.xml").read_text()
     text = text.replace('value="meshes/z.obj"', f'value="{mesh}"')
-    text = text.replace('<translate x="0.0" y="0.0" z="1.0"/>', '<translate x="0.0" y="0.0" z="0.0"/>')
-    text = text.replace('name="nlos_hidden_geometry_sampling" value="true"', 'name="nlos_hidden_geometry_sampling" value="false"')
-    for key, value in (("width", 128), ("height", 128), ("temporal_bins", 750), ("bin_width_opl", 0.003)):
+    text = text.replace('<translate x="0.0" y="0.0" z="1.0"/>', f'<translate x="0.0" y="0.0" z="{depth}"/>')
+    text = text.replace('name="nlos_hidden_geometry_sampling" value="true"', f'name="nlos_hidden_geometry_sampling" value="{hgs}"')
+    if example == "bunny_exhaustive":
+        text = text.replace('name="force_equal_illumination_scanning" value="true"',
+                            'name="force_equal_illumination_scanning" value="false"')
+    for key, value in (("width", scan[1]), ("height", scan[1]), ("temporal_bins", 750), ("bin_width_opl", 0.003),
+                       ("start_opl", start), ("laser_scan_width", scan[2]), ("laser_scan_height", scan[2])):
         text = re.sub(rf'(name="{key}" value=")[^"]*(")', rf"\g<1>{value}\g<2>", text)
-    out = out_dir / "bench_tal_bunny_confocal.xml"
+    out = out_dir / f"bench_tal_{example}.xml"
     out.write_text(text)
     return str(out)
 
@@ -167,8 +188,12 @@ def workloads(quick: bool):
         "mitransient_camera_file_bsdf": (lambda: (hgs_off_copy(data / "mitransient" / "transient-nlos" / "nlos-z-simple.xml",
                                                                scenes.cache_dir() / "bench_nlos-z-simple_hgs_off.xml"),
                                                   max(1, 4096 // div)), "mono"),
-        # tal's bunny example as tal ships it (hidden-geometry sampling off, 128×128 confocal).
-        "tal_bunny_confocal_file": (lambda: (tal_bunny_confocal(scenes.cache_dir()), max(1, 256 // div)), "mono"),
+        # tal's own examples (tal_example): the bunny, confocal and exhaustive, and the plane.
+        "tal_bunny_confocal_file": (lambda: (tal_example(scenes.cache_dir(), "bunny_confocal"), max(1, 256 // div)), "mono"),
+        "tal_bunny_exhaustive_file": (lambda: (tal_example(scenes.cache_dir(), "bunny_exhaustive"), max(1, 256 // div)),
+                                      "mono"),
+        "tal_plane_exhaustive_file": (lambda: (tal_example(scenes.cache_dir(), "plane_exhaustive"), max(1, 256 // div)),
+                                      "mono"),
         # mitransient's room with hidden-geometry sampling off: the walls surround the Z, so every
         # direction from the relay wall meets something and no cone turns a path down.
         "mitransient_room_file_bsdf": (lambda: (hgs_off_copy(data / "mitransient" / "transient-nlos" / "nlos-z-room.xml",
