@@ -21,7 +21,9 @@ nlos-z-room.xml (the Z among walls) and cornell-box/cbox_diffuse.xml (line of si
 confocal capture tal wrote (tests/data/tal021, unbounded depth), and the Z's confocal capture, the
 200k-triangle sphere (single and confocal) and mitransient's camera and room files with
 hidden-geometry sampling off (the default of mitransient's plugin and of tal's generator): BSDF sampling from
-the relay wall, whose rays mostly miss the hidden object (in the room, walls meet every one).
+the relay wall, whose rays mostly miss the hidden object (in the room, walls meet every one); and
+three of tal's own examples (tal_example): the bunny, confocal and exhaustive, and the plane,
+exhaustive, at 750 bins.
 mitransient's time is its render call with dr.eval + dr.sync_thread.
 """
 
