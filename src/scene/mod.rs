@@ -134,27 +134,15 @@ impl Scene {
         if self.shape_flip[shape] { -1.0 } else { 1.0 }
     }
 
-    /// Whether shape `shape` is a flat sheet shaded by its face normals: triangles without vertex
-    /// normals, every vertex within rounding of one plane. No light goes from one of its points to
-    /// another: the direction between them lies in the plane, at a cosine of zero to both.
+    /// Whether shape `shape` is a flat sheet shaded by its face normals: triangles in one plane
+    /// (the tree's test, [`Accel::plane_of`]) without vertex normals. No light goes from one of
+    /// its points to another: the direction between them lies in the plane, at a cosine of zero
+    /// to both.
     pub fn is_flat(&self, shape: usize) -> bool {
         let range = self.shapes[shape].prims.clone();
-        let prims = &self.prims[range.clone()];
-        let Some(&Prim::Triangle { v: [o, ..], n }) = prims.first() else {
-            return false;
-        };
-        let vertices = || {
-            prims.iter().flat_map(|p| match p {
-                Prim::Triangle { v, .. } => v.as_slice(),
-                _ => &[],
-            })
-        };
-        let scale = vertices().fold(0.0f32, |m, v| m.max(v.abs().max_element()));
-        let eps = 1e-6 * (1.0 + scale);
-        (n.length_squared() - 1.0).abs() < 1e-3
-            && prims.iter().all(|p| matches!(p, Prim::Triangle { .. }))
+        !range.is_empty()
+            && self.accel.plane_of(shape as u32) != NO_PLANE
             && self.prim_normals[range].iter().all(Option::is_none)
-            && vertices().all(|v| n.dot(*v - o).abs() <= eps)
     }
 
     /// Each shape's BSDF resolved for a mono or rgb render, indexed by shape.
