@@ -502,14 +502,19 @@ fn render_by(
 /// replaces it and flushes the old mapping from every core the process runs on: an interrupt to
 /// the other cores for each 4 KiB page. On a two-core VM a 1-spp render of a 128×128×750 film
 /// took 100 ms on two threads against 49 ms on one (32 ms on two with this). A first write maps
-/// each page once, with no flush. (The stores are opaque to the optimiser, which would otherwise drop them as zeros
-/// written over zeros.)
+/// each page once, with no flush. (The stores are opaque to the optimiser, which would otherwise
+/// drop them as zeros written over zeros.) The pages are written by the render's threads, runs of
+/// 64 in parallel: the faults take the kernel as long as the render's fixed work, and two threads
+/// take them 1.5x faster than one (tal's 16×16 × 16×16 exhaustive plane, a 196 MB film: a 1-spp
+/// render 1.35x faster on two threads, a 256-spp one 1.14x).
 fn zero_bins(n: usize) -> Vec<f32> {
     const PAGE: usize = 4096 / std::mem::size_of::<f32>();
     let mut bins = vec![0.0f32; n];
-    for i in (0..n).step_by(PAGE).chain(n.checked_sub(1)) {
-        bins[i] = std::hint::black_box(0.0);
-    }
+    bins.par_chunks_mut(64 * PAGE).for_each(|run| {
+        for i in (0..run.len()).step_by(PAGE).chain(run.len().checked_sub(1)) {
+            run[i] = std::hint::black_box(0.0);
+        }
+    });
     bins
 }
 
