@@ -120,6 +120,7 @@ pub(super) const SLAB_PAD: f32 =
 /// A node: its four children's boxes, one child per lane: `b[0][axis]` the low and
 /// `b[1][axis]` the high bounds.
 #[derive(Clone, Copy)]
+#[repr(C, align(64))]
 struct Node {
     b: [[Vec4; 3]; 2],
     child: [u32; 4],
@@ -133,6 +134,7 @@ const EMPTY_NODE: Node = Node {
 
 /// Four triangles, one per lane: `v[vertex][axis]`.
 #[derive(Clone, Copy)]
+#[repr(C, align(64))]
 struct TriPack {
     v: [[Vec4; 3]; 3],
     /// Each lane's primitive index in scene order.
@@ -696,6 +698,7 @@ impl Accel {
                                 entered[at] = entered[at - 1];
                                 at -= 1;
                             }
+                            self.prefetch(node.child[lane]);
                             entered[at] = (node.child[lane], t);
                             n += 1;
                         }
@@ -719,6 +722,38 @@ impl Accel {
                 }
             }
         });
+    }
+
+    /// Start loading the node or the one pack of child code `code` (two or three cache lines,
+    /// nodes and packs being aligned to lines) as soon as a ray is known to enter it: a traversal
+    /// waits mostly on these loads (a 13k-triangle mesh's tree sits in L2, not L1), and a child
+    /// pushed for later, or the nearest one taken next, is then on its way while the ray's other
+    /// children are ordered. On two threads (`benchmarks/ab.py`) the 200k-triangle mesh with
+    /// hidden-geometry sampling off rendered 1.03× as fast (one thread 1.06×), its single capture
+    /// with it on 1.03×, tal's bunny 1.05× (one thread 0.99–1.05×).
+    #[inline(always)]
+    fn prefetch(&self, code: u32) {
+        #[cfg(target_arch = "x86_64")]
+        {
+            use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
+            let p: *const i8 = if code & LEAF == 0 {
+                self.nodes.as_ptr().wrapping_add(code as usize).cast()
+            } else if code & ONE_PACK != 0 {
+                self.packs
+                    .as_ptr()
+                    .wrapping_add((code & !(LEAF | ONE_PACK)) as usize)
+                    .cast()
+            } else {
+                return;
+            };
+            unsafe {
+                _mm_prefetch::<_MM_HINT_T0>(p);
+                _mm_prefetch::<_MM_HINT_T0>(p.wrapping_add(64));
+                if code & LEAF != 0 {
+                    _mm_prefetch::<_MM_HINT_T0>(p.wrapping_add(128));
+                }
+            }
+        }
     }
 
     /// The bounding box of the segment `o + t d`, `t ∈ (tmin, tmax)`, inside the scene's bounds,
