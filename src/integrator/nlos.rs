@@ -438,10 +438,12 @@ impl<'a> NlosTracer<'a> {
     /// that sheet, or no such connection is kept), samples that direction from the BSDF about
     /// the normal of the pixel's cone whatever triangle is met, and draws nothing before it.
     fn bare_first_vertex(&self, pixel: usize, x: &Interaction, wi: Vec3A) -> bool {
-        let (st, shape) = (self.settings, x.shape as usize);
-        let offset = if st.laser_sampling { 2 } else { 0 };
-        let connects_nothing = !st.keep(offset)
-            || (st.laser_sampling
+        let shape = x.shape as usize;
+        let (all_delta, some_delta) = self.delta[shape];
+        // `bounce`'s own tests at loop depth 0; a connection between points of one flat sheet
+        // carries nothing.
+        let connects_nothing = !self.connects(0, all_delta)
+            || (self.settings.laser_sampling
                 && self.flat[shape]
                 && self.capture.spots.iter().all(|s| s.it.shape == x.shape));
         let Some(cone) = self.scan_cones[pixel].as_ref() else {
@@ -458,9 +460,52 @@ impl<'a> NlosTracer<'a> {
             });
         connects_nothing
             && drawn_about_cone
-            && self.hidden.is_none()
-            && st.max_depth >= 2
-            && st.filter_depth.is_none_or(|f| offset < f)
+            && !self.ends_before_connecting(0)
+            && !self.ends_after_connecting(0)
+            && self.hidden_technique(0, some_delta).is_none()
+    }
+
+    /// Contribution depth of a vertex at loop depth d: d + 2 with laser sampling (the spot is an
+    /// extra vertex), d with NEE (mitransient-model §2, filter_bounces).
+    #[inline(always)]
+    fn depth_offset(&self) -> u32 {
+        if self.settings.laser_sampling { 2 } else { 0 }
+    }
+
+    /// Whether a path ends at its vertex of loop depth `depth` before anything is done there: no
+    /// later vertex is allowed (max_depth).
+    #[inline(always)]
+    fn ends_before_connecting(&self, depth: u32) -> bool {
+        depth.saturating_add(1) >= self.settings.max_depth
+    }
+
+    /// Whether emitter sampling runs at a vertex of loop depth `depth` whose BSDF is all delta
+    /// or not: not where filter_bounces drops its depth, not at an all-delta vertex (nothing to
+    /// connect to), and not at a fixed scan point, whose connections `fixed_contributions`
+    /// passes once.
+    #[inline(always)]
+    fn connects(&self, depth: u32, all_delta: bool) -> bool {
+        self.settings.keep(depth + self.depth_offset())
+            && !all_delta
+            && !(depth == 0 && self.spot_paths_fixed())
+    }
+
+    /// Whether a path ends after its vertex of loop depth `depth` is connected: no later vertex
+    /// can pass filter_bounces (stopping changes no result).
+    #[inline(always)]
+    fn ends_after_connecting(&self, depth: u32) -> bool {
+        self.settings
+            .filter_depth
+            .is_some_and(|f| depth + 1 + self.depth_offset() > f)
+    }
+
+    /// The hidden geometry that draws the next vertex at loop depth `depth` (plain or HGRS), or
+    /// `None` for BSDF sampling: none where some BSDF component is a delta (a draw towards hidden
+    /// geometry would miss it) or beyond `hgs_max_depth`.
+    #[inline(always)]
+    fn hidden_technique(&self, depth: u32, some_delta: bool) -> Option<&AreaSampler> {
+        self.hidden
+            .filter(|_| !some_delta && self.settings.hgs_max_depth.is_none_or(|m| depth < m))
     }
 
     /// With a camera, whether the path's first direction is turned down by its pixel's cone
@@ -627,29 +672,22 @@ impl NlosTracer<'_> {
         let Some(v) = v else {
             return false;
         };
-        // Contribution depth of a vertex at loop depth d: d + 2 with laser sampling (the spot is
-        // an extra vertex), d with NEE (mitransient-model §2, filter_bounces).
-        let offset = if st.laser_sampling { 2 } else { 0 };
-        if depth.saturating_add(1) >= st.max_depth {
+        if self.ends_before_connecting(depth) {
             return false;
         }
         // A delta (mirror-like) BSDF cannot be connected to: no emitter sampling at an
         // all-delta vertex, and where some component is delta the path goes on by sampling the
         // BSDF rather than towards hidden geometry (which would miss that component).
         let (all_delta, some_delta) = self.delta[v.it.shape as usize];
-        // ---- Emitter sampling (at a fixed scan point, fixed_contributions passes it once)
-        if st.keep(depth + offset) && !all_delta && !(depth == 0 && self.spot_paths_fixed()) {
+        // ---- Emitter sampling
+        if self.connects(depth, all_delta) {
             self.emitter_sampling(pixel, v, depth == 1 && self.camera.is_none(), out);
         }
-        // No later vertex can pass filter_bounces: stop early (changes no result).
-        if st.filter_depth.is_some_and(|f| depth + 1 + offset > f) {
+        if self.ends_after_connecting(depth) {
             return false;
         }
         // ---- Direction sampling: hidden geometry (plain or HGRS) or the BSDF
-        let mut hidden = self
-            .hidden
-            .as_ref()
-            .filter(|_| !some_delta && st.hgs_max_depth.is_none_or(|m| depth < m));
+        let mut hidden = self.hidden_technique(depth, some_delta);
         if hidden.is_some() && st.hgs_rroulette {
             // One of the two techniques at random; each is unbiased on its own, so the
             // mixture is too (mitransient also divides by 1/2 here and doubles the result).
