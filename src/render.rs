@@ -503,18 +503,25 @@ fn render_by(
 /// the other cores for each 4 KiB page. On a two-core VM a 1-spp render of a 128×128×750 film
 /// took 100 ms on two threads against 49 ms on one (32 ms on two with this). A first write maps
 /// each page once, with no flush. (The stores are opaque to the optimiser, which would otherwise
-/// drop them as zeros written over zeros.) The pages are written by the render's threads, runs of
-/// 64 in parallel: the faults take the kernel as long as the render's fixed work, and two threads
-/// take them 1.5x faster than one (tal's 16×16 × 16×16 exhaustive plane, a 196 MB film: a 1-spp
-/// render 1.35x faster on two threads, a 256-spp one 1.14x).
+/// drop them as zeros written over zeros.) Inside a render's thread pool the pages are written by
+/// its threads, runs of 64 in parallel: the faults are most of a large film's fixed cost, and two
+/// threads take them 1.5x faster than one (tal's 16×16 × 16×16 exhaustive plane, a 196 MB film:
+/// a 1-spp render 1.35x faster on two threads, a 256-spp one 1.14x). Elsewhere (parts put
+/// together) on the calling thread alone: never on rayon's global pool, which a forked child
+/// would wait on forever (`parallel.rs`).
 fn zero_bins(n: usize) -> Vec<f32> {
     const PAGE: usize = 4096 / std::mem::size_of::<f32>();
-    let mut bins = vec![0.0f32; n];
-    bins.par_chunks_mut(64 * PAGE).for_each(|run| {
+    let touch = |run: &mut [f32]| {
         for i in (0..run.len()).step_by(PAGE).chain(run.len().checked_sub(1)) {
             run[i] = std::hint::black_box(0.0);
         }
-    });
+    };
+    let mut bins = vec![0.0f32; n];
+    if rayon::current_thread_index().is_some() {
+        bins.par_chunks_mut(64 * PAGE).for_each(touch);
+    } else {
+        bins.chunks_mut(64 * PAGE).for_each(touch);
+    }
     bins
 }
 

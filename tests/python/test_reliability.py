@@ -159,6 +159,33 @@ print("forked ok")
     assert r.returncode == 0 and "forked ok" in r.stdout, (r.returncode, r.stderr[-2000:])
 
 
+def test_fork_child_assembles_parts():
+    # Putting parts together (the Dask and out-of-core routes) runs outside any render's thread
+    # pool; it must not start rayon's global pool either, whose threads a forked child lacks.
+    r = run_isolated("""
+import os, signal, nlos_rs, numpy as np
+from nlos_rs import _core, distributed as nd
+d = nlos_rs.scenes.z_nlos_1corner(width=16, height=16, spp=8)  # a 300 KB transient: work to split
+src = nd.source(d)
+opts = nd._options(8, 1, "mono", None, None, None)
+
+def assembled():
+    local = nd.load(src)
+    plan = _core.render_plan(local, opts)
+    return _core.assemble(local, nd.compute_parts(src, plan, opts, (0, plan["pixels"])), opts)[0]
+
+parent = assembled()
+pid = os.fork()
+if pid == 0:
+    signal.alarm(20)  # a hung child dies instead of outliving the test
+    os._exit(0 if np.array_equal(assembled(), parent) else 3)
+_, status = os.waitpid(pid, 0)
+assert os.WIFEXITED(status) and os.WEXITSTATUS(status) == 0, status
+print("assembled ok")
+""", timeout=60)
+    assert r.returncode == 0 and "assembled ok" in r.stdout, (r.returncode, r.stderr[-2000:])
+
+
 # ---- Panics
 
 
