@@ -19,3 +19,16 @@ def peer():
     assert mitr.__version__ == "1.3.1", mitr.__version__
     assert mi.__version__ == "3.9.1", mi.__version__
     return mi
+
+
+@pytest.fixture
+def python_handles_sigint():
+    """Python's own SIGINT handler for the test. `_thread.interrupt_main` (the tests' Ctrl-C) acts
+    only where Python handles SIGINT, and a process started in the background by a
+    non-interactive shell inherits SIGINT ignored, which Python then leaves as it is: there the
+    interrupt would never arrive."""
+    import signal
+
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    yield
+    signal.signal(signal.SIGINT, previous)

@@ -220,7 +220,7 @@ def slow_scene():
                  type="transient_nlos_path_rs", hgrs_max_iterations=10_000)
 
 
-def test_ctrl_c_stops_an_expensive_render_within_a_fifth_of_a_second():
+def test_ctrl_c_stops_an_expensive_render_within_a_fifth_of_a_second(python_handles_sigint):
     import _thread
 
     d = nlos_rs.scenes.z_nlos_1corner(width=8, height=8, spp=1 << 20,
