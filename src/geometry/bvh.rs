@@ -756,6 +756,9 @@ impl Accel {
                 }
             }
         }
+        // Elsewhere no prefetch: the loads come when the child is visited.
+        #[cfg(not(target_arch = "x86_64"))]
+        let _ = code;
     }
 
     /// The bounding box of the segment `o + t d`, `t ∈ (tmin, tmax)`, inside the scene's bounds,
