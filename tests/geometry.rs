@@ -1,5 +1,6 @@
-//! The 4-wide BVH (src/geometry/bvh.rs): watertight hits on closed meshes, rays with -0.0
-//! direction components, and agreement with brute force; the small-scene scan
+//! The 16-wide BVH (src/geometry/bvh.rs): watertight hits on closed meshes, rays with -0.0
+//! direction components, and agreement with brute force, the same bits whichever SIMD extension
+//! tests its nodes; the small-scene scan
 //! (src/geometry/small_scene.rs): the very bits of brute force.
 
 use glam::Vec3A;
@@ -194,6 +195,35 @@ fn random_rays_match(
     hits
 }
 
+/// The tree over `prims` (each its own shape) once for each node test this CPU runs: each
+/// answers `rays` random rays (as [`random_rays_match`]) and segments with the very bits of the
+/// first.
+fn node_tests_agree(prims: &[Prim], rng: &mut Sampler, rays: usize) {
+    let shapes: Vec<u32> = (0..prims.len() as u32).collect();
+    let trees = Accel::each_node_test(prims, &shapes, prims.len());
+    #[cfg(target_arch = "x86_64")]
+    assert_eq!(
+        trees.len(),
+        1 + std::arch::is_x86_feature_detected!("avx512f") as usize
+            + std::arch::is_x86_feature_detected!("avx2") as usize
+    );
+    for _ in 0..rays {
+        let o = r3(rng) * 1.5;
+        let d = r3(rng).normalize();
+        let first = trees[0].intersect(o, d, 0.0, f32::INFINITY);
+        let blocked = trees[0].unoccluded(o, d, 0.0, 1.0, NONE);
+        for tree in &trees[1..] {
+            let hit = tree.intersect(o, d, 0.0, f32::INFINITY);
+            assert_eq!(
+                hit.map(|h| (h.t.to_bits(), h.prim, h.b.map(f32::to_bits))),
+                first.map(|h| (h.t.to_bits(), h.prim, h.b.map(f32::to_bits))),
+                "{o:?} + t {d:?}"
+            );
+            assert_eq!(tree.unoccluded(o, d, 0.0, 1.0, NONE), blocked);
+        }
+    }
+}
+
 #[test]
 fn bvh_matches_brute_force() {
     let mut rng = Sampler::new(8, 9, 10);
@@ -208,6 +238,7 @@ fn bvh_matches_brute_force() {
     let accel = build(&prims);
     let hits = random_rays_match(&accel, &prims, &mut rng, 20_000, true);
     assert!(hits > 1000);
+    node_tests_agree(&prims, &mut rng, 20_000);
 }
 
 #[test]
@@ -244,7 +275,10 @@ fn axis_plane_rays_match_brute_force() {
             ],
         );
     }
-    let accel = build(&prims);
+    // The scene's own (a small scene's scan, on a CPU with one) and the tree with each node test.
+    let shapes: Vec<u32> = (0..prims.len() as u32).collect();
+    let mut accels = Accel::each_node_test(&prims, &shapes, prims.len());
+    accels.insert(0, build(&prims));
     let mut rng = Sampler::new(11, 12, 13);
     let (mut tested, mut hits) = (0, 0u32);
     for _ in 0..4000 {
@@ -266,7 +300,10 @@ fn axis_plane_rays_match_brute_force() {
         let Some(d) = d.try_normalize() else { continue };
         tested += 1;
         // Rays along the grid's edges hit two quads at once: only the distance must agree.
-        hits += matches_brute_force(&accel, &prims, o, d, 1.5, false) as u32;
+        for (k, accel) in accels.iter().enumerate() {
+            let hit = matches_brute_force(accel, &prims, o, d, 1.5, false);
+            hits += (k == 0 && hit) as u32;
+        }
     }
     assert!(tested > 3000 && hits > 500, "{tested} rays, {hits} hits");
 }
@@ -418,6 +455,7 @@ fn large_mesh_built_in_parallel_matches_brute_force() {
         let hits = random_rays_match(&accel, &prims, &mut rng, 600, false);
         assert!(hits > 100, "{threads} threads: {hits}");
     }
+    node_tests_agree(&prims, &mut rng, 2_000);
 }
 
 /// The small-scene scan for each SIMD extension of this CPU gives brute force's closest hit bit for
@@ -760,8 +798,11 @@ fn small_scene_scan_matches_brute_force_on_random_and_degenerate_scenes() {
             );
         }
     }
+    // (Off x86-64 no scan is built and none is queried.)
     #[cfg(target_arch = "x86_64")]
     if std::arch::is_x86_feature_detected!("avx2") {
         assert!(queries >= 200_000, "{queries}");
     }
+    #[cfg(not(target_arch = "x86_64"))]
+    assert_eq!(queries, 0);
 }

@@ -1,11 +1,12 @@
-//! The scene's ray-tracing acceleration structure: a 4-wide BVH (Dammertz, Hanika and Keller
+//! The scene's ray-tracing acceleration structure: a 16-wide BVH (Dammertz, Hanika and Keller
 //! 2008, "Shallow bounding volume hierarchies for fast SIMD ray tracing of incoherent rays";
-//! Wald, Benthin and Boulos 2008, "Getting rid of packets"). Each node holds its four children's
-//! boxes, tested against a ray in the four lanes of one SIMD vector (glam's `Vec4`: SSE2 on
-//! x86-64, NEON on aarch64), and leaves hold triangles in packs of four, tested the same way.
+//! Wald, Benthin and Boulos 2008, "Getting rid of packets"). Each node holds up to sixteen
+//! children's boxes, tested against a ray in one AVX-512 vector, two AVX2 ones or four of glam's
+//! `Vec4` (SSE2 on x86-64, NEON on aarch64), whichever the CPU has ([`super::wide`]); leaves hold
+//! triangles in packs of four, tested in a `Vec4`.
 //!
 //! The tree's shape comes from a binary tree built top-down by the binned surface-area heuristic
-//! ([`sah_tree`], in O(n log n) whatever the input), collapsed here to four children per node,
+//! ([`sah_tree`], in O(n log n) whatever the input), collapsed here to sixteen children per node,
 //! always opening the child with the largest surface, without recursion.
 //! Closest-hit traversal is front to back (a popped node farther than the closest hit so far is
 //! skipped); shadow rays stop at the first hit.
@@ -22,8 +23,11 @@
 //!   to the scene), which is conservative and few nodes for a ray along an axis.
 
 use super::small_scene::{Packs, Query, SmallScene};
+#[cfg(target_arch = "x86_64")]
+use super::wide::x86;
+use super::wide::{Isa, Mask, Q4, Wide, supported};
 use super::{Hit, Prim, Watertight, intersect_triangle};
-use glam::{BVec4A, Vec3A, Vec4};
+use glam::{Vec3A, Vec4};
 use std::cell::RefCell;
 
 thread_local! {
@@ -117,20 +121,51 @@ const LEAF_PRIMS: u32 = 4;
 pub(super) const SLAB_PAD: f32 =
     1.0 + 2.0 * (3.0 * f32::EPSILON * 0.5) / (1.0 - 3.0 * f32::EPSILON * 0.5);
 
-/// A node: its four children's boxes, one child per lane: `b[0][axis]` the low and
-/// `b[1][axis]` the high bounds.
+/// Children per node: the lanes of one AVX-512 vector.
+const WIDTH: usize = 16;
+
+/// A node: its children's boxes, one child per lane: `b[0][axis]` the low and `b[1][axis]` the
+/// high bounds.
 #[derive(Clone, Copy)]
 #[repr(C, align(64))]
 struct Node {
-    b: [[Vec4; 3]; 2],
-    child: [u32; 4],
+    b: [[[f32; WIDTH]; 3]; 2],
+    child: [u32; WIDTH],
 }
 
-/// A node with four unused lanes (empty boxes: low +∞, high −∞).
+/// A node with every lane unused (empty boxes: low +∞, high −∞).
 const EMPTY_NODE: Node = Node {
-    b: [[Vec4::INFINITY; 3], [Vec4::NEG_INFINITY; 3]],
-    child: [EMPTY; 4],
+    b: [[[f32::INFINITY; WIDTH]; 3], [[f32::NEG_INFINITY; WIDTH]; 3]],
+    child: [EMPTY; WIDTH],
 };
+
+/// The slab test (Kay and Kajiya 1986) of lanes `at..at + V::WIDTH` of the boxes `b` (low and
+/// high bounds by axis and lane) against the ray from `org` with inverse direction `inv` over
+/// `[tmin, tmax]`: the lanes it enters, and where. Per axis the bound met first is picked by the
+/// direction's sign, so an empty box (low +∞, high −∞) is never entered; far distances are
+/// widened by [`SLAB_PAD`]. `inv` must be finite (rays near an axis plane take another test).
+#[inline(always)]
+pub(super) fn slab<V: Wide, const N: usize>(
+    b: &[[[f32; N]; 3]; 2],
+    at: usize,
+    org: [f32; 3],
+    inv: [f32; 3],
+    tmin: f32,
+    tmax: f32,
+) -> (V::Mask, V) {
+    let (mut near, mut far) = (V::splat(tmin), V::splat(tmax));
+    for a in 0..3 {
+        let (n, f) = if inv[a] < 0.0 {
+            (&b[1][a], &b[0][a])
+        } else {
+            (&b[0][a], &b[1][a])
+        };
+        let (org, inv) = (V::splat(org[a]), V::splat(inv[a]));
+        near = near.max(V::load(n, at).sub(org).mul(inv));
+        far = far.min(V::load(f, at).sub(org).mul(inv).mul(V::splat(SLAB_PAD)));
+    }
+    (near.le(far), near)
+}
 
 /// Four triangles, one per lane: `v[vertex][axis]`.
 #[derive(Clone, Copy)]
@@ -152,7 +187,7 @@ struct Leaf {
     others: (u32, u32),
 }
 
-/// A 4-wide BVH over the scene's primitives.
+/// A 16-wide BVH over the scene's primitives.
 pub struct Accel {
     /// Node 0 is the root (when there are primitives).
     nodes: Vec<Node>,
@@ -171,6 +206,8 @@ pub struct Accel {
     /// A scene of a few dozen triangles is scanned instead (on a CPU with AVX2), pack by pack: a
     /// ray scans the packs whose boxes it enters.
     small: Option<SmallScene>,
+    /// The extension the nodes are tested with (`None`: four lanes at a time in glam's `Vec4`).
+    isa: Option<Isa>,
 }
 
 /// The plane key of a primitive on no shared plane.
@@ -199,18 +236,17 @@ fn planar_shapes(prims: &[Prim], prim_shape: &[u32], shapes: usize) -> Vec<bool>
     planar
 }
 
-/// A ray prepared for the four-lane tests.
+/// A ray prepared for the tree's tests.
 struct Ray4 {
     o: Vec3A,
     d: Vec3A,
     tmin: f32,
-    /// Slab test: origin and inverse direction per axis (splat). Where the inverse direction is
-    /// negative the ray meets the high bound first.
-    org: [Vec4; 3],
-    inv: [Vec4; 3],
-    /// Near an axis plane: the box of the segment per axis (low and high, splat), tested for
+    /// Slab test: origin and inverse direction per axis.
+    org: [f32; 3],
+    inv: [f32; 3],
+    /// Near an axis plane: the box of the segment (low and high corners, per axis), tested for
     /// overlap instead.
-    segment: Option<[[Vec4; 3]; 2]>,
+    segment: Option<[[f32; 3]; 2]>,
 }
 
 /// The watertight test's part of a ray (made on its first triangle pack: many shadow rays meet
@@ -238,45 +274,40 @@ impl Shear4 {
 impl Ray4 {
     #[inline]
     fn new(accel: &Accel, o: Vec3A, d: Vec3A, tmin: f32, tmax: f32) -> Self {
-        let segment = near_axis_plane(d).then(|| {
-            let splat = |v: Vec3A| v.to_array().map(Vec4::splat);
-            accel.segment_box(o, d, tmin, tmax).map(splat)
-        });
+        let segment =
+            near_axis_plane(d).then(|| accel.segment_box(o, d, tmin, tmax).map(|c| c.to_array()));
         Self {
             o,
             d,
             tmin,
-            org: o.to_array().map(Vec4::splat),
-            inv: d.recip().to_array().map(Vec4::splat),
+            org: o.to_array(),
+            inv: d.recip().to_array(),
             segment,
         }
     }
 
-    /// Which of `node`'s children the ray enters before `tmax` (bit per lane), and where.
-    #[inline]
-    fn enter(&self, node: &Node, tmax: f32) -> (u32, Vec4) {
-        if let Some(segment) = &self.segment {
-            let [lo, hi] = segment;
-            let mut hit = BVec4A::splat(true);
-            for a in 0..3 {
-                hit &= node.b[0][a].cmple(hi[a]) & node.b[1][a].cmpge(lo[a]);
-            }
-            return (hit.bitmask(), Vec4::splat(self.tmin));
-        }
-        let mut near = Vec4::splat(self.tmin);
-        let mut far = Vec4::splat(tmax);
-        for a in 0..3 {
-            // (Read from `inv`, not kept as flags beside `tmin`: the ray's fields are copied as
-            // one 16-byte word, and flags stored byte by byte stall that load.)
-            let (n, f) = if self.inv[a].x < 0.0 {
-                (node.b[1][a], node.b[0][a])
+    /// Which of `node`'s children the ray enters before `tmax` (bit per lane), and where, tested
+    /// `V::WIDTH` lanes at a time.
+    #[inline(always)]
+    fn enter<V: Wide>(&self, node: &Node, tmax: f32) -> (u32, [f32; WIDTH]) {
+        let (mut mask, mut near) = (0, [self.tmin; WIDTH]);
+        for at in (0..WIDTH).step_by(V::WIDTH) {
+            let m = if let Some([lo, hi]) = &self.segment {
+                let mut m = V::Mask::from_bits(u32::MAX);
+                for a in 0..3 {
+                    m = m
+                        & V::load(&node.b[0][a], at).le(V::splat(hi[a]))
+                        & V::splat(lo[a]).le(V::load(&node.b[1][a], at));
+                }
+                m
             } else {
-                (node.b[0][a], node.b[1][a])
+                let (m, n) = slab::<V, WIDTH>(&node.b, at, self.org, self.inv, self.tmin, tmax);
+                n.store_at(&mut near, at);
+                m
             };
-            near = near.max((n - self.org[a]) * self.inv[a]);
-            far = far.min((f - self.org[a]) * self.inv[a] * SLAB_PAD);
+            mask |= m.bits() << at;
         }
-        (near.cmple(far).bitmask(), near)
+        (mask, near)
     }
 
     /// The watertight test on four triangles: the lanes hit in `(tmin, tmax)` (bit per lane)
@@ -317,7 +348,7 @@ impl Ray4 {
     }
 }
 
-/// Builds the 4-wide tree from the binary one, without recursion (degenerate input, such as
+/// Builds the 16-wide tree from the binary one, without recursion (degenerate input, such as
 /// thousands of coincident triangles, makes a deep binary tree).
 struct Collapse<'a> {
     tree: &'a BinaryTree,
@@ -377,13 +408,13 @@ impl<'a> Collapse<'a> {
         }
     }
 
-    /// Up to four binary descendants of inner node `i` that cover it: its children, then,
-    /// while fewer than four, the children of the largest one that is no leaf instead of it.
+    /// Up to [`WIDTH`] binary descendants of inner node `i` that cover it: its children, then,
+    /// while fewer, the children of the largest one that is no leaf instead of it.
     fn open(&self, i: usize) -> Vec<usize> {
         let nodes = &self.tree.nodes;
         let first = nodes[i].first as usize;
         let mut kids = vec![first, first + 1];
-        while kids.len() < 4 {
+        while kids.len() < WIDTH {
             let Some(at) = (0..kids.len())
                 .filter(|&k| !self.is_leaf(kids[k]))
                 .max_by(|&a, &b| {
@@ -492,7 +523,22 @@ impl Accel {
             len: prims.len(),
             bounds,
             small: None,
+            isa: supported().first().copied(),
         }
+    }
+
+    /// The tree alone once for each node test this CPU runs (each extension it has, widest
+    /// first, then four lanes of glam's `Vec4`): tests compare them.
+    pub fn each_node_test(prims: &[Prim], prim_shape: &[u32], shapes: usize) -> Vec<Self> {
+        supported()
+            .into_iter()
+            .map(Some)
+            .chain([None])
+            .map(|isa| Self {
+                isa,
+                ..Self::build_tree(prims, prim_shape, shapes)
+            })
+            .collect()
     }
 
     /// The plane key of a point on shape `shape`: the shape if it is planar, else [`NO_PLANE`].
@@ -519,9 +565,35 @@ impl Accel {
         }
     }
 
-    /// [`Self::intersect`] through the tree (out of line: the scan's callers stay small).
+    /// [`Self::intersect`] through the tree (out of line: the scan's callers stay small), its
+    /// nodes tested with the tree's extension.
     #[inline(never)]
     fn intersect_tree(&self, o: Vec3A, d: Vec3A, tmin: f32, tmax: f32) -> Option<Hit> {
+        // SAFETY: `isa` was detected on this CPU.
+        match self.isa {
+            #[cfg(target_arch = "x86_64")]
+            Some(Isa::Avx512) => unsafe { self.intersect_tree_avx512(o, d, tmin, tmax) },
+            #[cfg(target_arch = "x86_64")]
+            Some(Isa::Avx2) => unsafe { self.intersect_tree_avx2(o, d, tmin, tmax) },
+            _ => self.closest_in_tree::<Q4>(o, d, tmin, tmax),
+        }
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f")]
+    fn intersect_tree_avx512(&self, o: Vec3A, d: Vec3A, tmin: f32, tmax: f32) -> Option<Hit> {
+        self.closest_in_tree::<x86::Z16>(o, d, tmin, tmax)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn intersect_tree_avx2(&self, o: Vec3A, d: Vec3A, tmin: f32, tmax: f32) -> Option<Hit> {
+        self.closest_in_tree::<x86::Y8>(o, d, tmin, tmax)
+    }
+
+    /// The closest hit through the tree, nodes tested `V::WIDTH` lanes at a time.
+    #[inline(always)]
+    fn closest_in_tree<V: Wide>(&self, o: Vec3A, d: Vec3A, tmin: f32, tmax: f32) -> Option<Hit> {
         if self.nodes.is_empty() {
             return None;
         }
@@ -529,7 +601,7 @@ impl Accel {
         let mut best: Option<Hit> = None;
         let mut tmax = tmax;
         let mut shear = None;
-        self.traverse::<true>(&ray, &mut tmax, |leaf, tmax| {
+        self.traverse::<V, true>(&ray, &mut tmax, |leaf, tmax| {
             for p in &self.packs[leaf.packs.0 as usize..leaf.packs.1 as usize] {
                 let sh = shear.get_or_insert_with(|| Shear4::new(o, d));
                 let (hit, redo, lanes4) = ray.triangles(sh, p, *tmax);
@@ -616,11 +688,57 @@ impl Accel {
     /// [`Self::unoccluded`] through the tree (out of line, as [`Self::intersect_tree`]).
     #[inline(never)]
     fn unoccluded_tree(&self, o: Vec3A, d: Vec3A, tmin: f32, tmax: f32, skip: [u32; 2]) -> bool {
+        // SAFETY: `isa` was detected on this CPU.
+        match self.isa {
+            #[cfg(target_arch = "x86_64")]
+            Some(Isa::Avx512) => unsafe { self.unoccluded_tree_avx512(o, d, tmin, tmax, skip) },
+            #[cfg(target_arch = "x86_64")]
+            Some(Isa::Avx2) => unsafe { self.unoccluded_tree_avx2(o, d, tmin, tmax, skip) },
+            _ => self.unoccluded_in_tree::<Q4>(o, d, tmin, tmax, skip),
+        }
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f")]
+    fn unoccluded_tree_avx512(
+        &self,
+        o: Vec3A,
+        d: Vec3A,
+        tmin: f32,
+        tmax: f32,
+        skip: [u32; 2],
+    ) -> bool {
+        self.unoccluded_in_tree::<x86::Z16>(o, d, tmin, tmax, skip)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn unoccluded_tree_avx2(
+        &self,
+        o: Vec3A,
+        d: Vec3A,
+        tmin: f32,
+        tmax: f32,
+        skip: [u32; 2],
+    ) -> bool {
+        self.unoccluded_in_tree::<x86::Y8>(o, d, tmin, tmax, skip)
+    }
+
+    /// Whether the segment is unoccluded through the tree, nodes tested `V::WIDTH` lanes at a time.
+    #[inline(always)]
+    fn unoccluded_in_tree<V: Wide>(
+        &self,
+        o: Vec3A,
+        d: Vec3A,
+        tmin: f32,
+        tmax: f32,
+        skip: [u32; 2],
+    ) -> bool {
         let ray = Ray4::new(self, o, d, tmin, tmax);
         let mut tmax = tmax;
         let mut miss = true;
         let mut shear = None;
-        self.traverse::<false>(&ray, &mut tmax, |leaf, tmax| {
+        self.traverse::<V, false>(&ray, &mut tmax, |leaf, tmax| {
             for p in &self.packs[leaf.packs.0 as usize..leaf.packs.1 as usize] {
                 let sh = shear.get_or_insert_with(|| Shear4::new(o, d));
                 let (hit, redo, _) = ray.triangles(sh, p, *tmax);
@@ -654,77 +772,86 @@ impl Accel {
     /// for each leaf the ray enters before `tmax`; `visit` may shorten `tmax` and returns whether
     /// to stop. With `NEAREST_FIRST` (closest hits) children are visited front to back and a
     /// popped node beyond `tmax` is skipped; without (any hit) in lane order.
-    #[inline]
-    fn traverse<const NEAREST_FIRST: bool>(
+    #[inline(always)]
+    fn traverse<V: Wide, const NEAREST_FIRST: bool>(
         &self,
+        ray: &Ray4,
+        tmax: &mut f32,
+        visit: impl FnMut(&Leaf, &mut f32) -> bool,
+    ) {
+        // The stack is taken out of its cell and put back, not borrowed in a closure: a closure
+        // is not compiled with its caller's target features, and the node tests would be calls.
+        let mut stack = STACK.take();
+        stack.clear();
+        self.walk::<V, NEAREST_FIRST>(&mut stack, ray, tmax, visit);
+        STACK.set(stack);
+    }
+
+    /// [`Self::traverse`] on `stack`.
+    #[inline(always)]
+    fn walk<V: Wide, const NEAREST_FIRST: bool>(
+        &self,
+        stack: &mut Vec<(u32, f32)>,
         ray: &Ray4,
         tmax: &mut f32,
         mut visit: impl FnMut(&Leaf, &mut f32) -> bool,
     ) {
-        STACK.with_borrow_mut(|stack| {
-            stack.clear();
-            let mut code = 0u32;
-            loop {
-                if code & LEAF != 0 {
-                    let leaf = match code & ONE_PACK {
-                        0 => self.leaves[(code & !LEAF) as usize],
-                        _ => {
-                            let pack = code & !(LEAF | ONE_PACK);
-                            Leaf {
-                                packs: (pack, pack + 1),
-                                others: (0, 0),
-                            }
+        let mut code = 0u32;
+        loop {
+            if code & LEAF != 0 {
+                let leaf = match code & ONE_PACK {
+                    0 => self.leaves[(code & !LEAF) as usize],
+                    _ => {
+                        let pack = code & !(LEAF | ONE_PACK);
+                        Leaf {
+                            packs: (pack, pack + 1),
+                            others: (0, 0),
                         }
-                    };
-                    if visit(&leaf, tmax) {
-                        return;
                     }
-                } else {
-                    let node = &self.nodes[code as usize];
-                    let (mut mask, near) = ray.enter(node, *tmax);
-                    if mask != 0 {
-                        // Lanes read from an array (a `Vec4` indexed by a variable lane compiles
-                        // to a jump table: an indirect branch per entered child).
-                        let near = near.to_array();
-                        // Go on with the nearest entered child; push the others farthest first.
-                        let mut entered = [(0u32, 0f32); 4];
-                        let mut n = 0;
-                        while mask != 0 {
-                            let lane = mask.trailing_zeros() as usize;
-                            mask &= mask - 1;
-                            let t = near[lane];
-                            let mut at = n;
-                            while NEAREST_FIRST && at > 0 && entered[at - 1].1 < t {
-                                entered[at] = entered[at - 1];
-                                at -= 1;
-                            }
-                            self.prefetch(node.child[lane]);
-                            entered[at] = (node.child[lane], t);
-                            n += 1;
-                        }
-                        for &e in &entered[..n - 1] {
-                            stack.push(e);
-                        }
-                        code = entered[n - 1].0;
-                        continue;
-                    }
+                };
+                if visit(&leaf, tmax) {
+                    return;
                 }
-                // The next node on the stack still in reach.
-                loop {
-                    match stack.pop() {
-                        None => return,
-                        Some((c, t)) if !NEAREST_FIRST || t <= *tmax => {
-                            code = c;
-                            break;
+            } else {
+                let node = &self.nodes[code as usize];
+                let (mut mask, near) = ray.enter::<V>(node, *tmax);
+                if mask != 0 {
+                    // Go on with the nearest entered child; push the others farthest first.
+                    let mut entered = [(0u32, 0f32); WIDTH];
+                    let mut n = 0;
+                    while mask != 0 {
+                        let lane = mask.trailing_zeros() as usize;
+                        mask &= mask - 1;
+                        let t = near[lane];
+                        let mut at = n;
+                        while NEAREST_FIRST && at > 0 && entered[at - 1].1 < t {
+                            entered[at] = entered[at - 1];
+                            at -= 1;
                         }
-                        Some(_) => {}
+                        self.prefetch(node.child[lane]);
+                        entered[at] = (node.child[lane], t);
+                        n += 1;
                     }
+                    stack.extend_from_slice(&entered[..n - 1]);
+                    code = entered[n - 1].0;
+                    continue;
                 }
             }
-        });
+            // The next node on the stack still in reach.
+            loop {
+                match stack.pop() {
+                    None => return,
+                    Some((c, t)) if !NEAREST_FIRST || t <= *tmax => {
+                        code = c;
+                        break;
+                    }
+                    Some(_) => {}
+                }
+            }
+        }
     }
 
-    /// Start loading the node or the one pack of child code `code` (two or three cache lines,
+    /// Start loading the node or the one pack of child code `code` (seven or three cache lines,
     /// nodes and packs being aligned to lines) as soon as a ray is known to enter it: a traversal
     /// waits mostly on these loads (a 13k-triangle mesh's tree sits in L2, not L1), and a child
     /// pushed for later, or the nearest one taken next, is then on its way while the ray's other
@@ -748,12 +875,13 @@ impl Accel {
             };
             // SAFETY: SSE is part of x86-64, and a prefetch is a hint: it never faults, and
             // reads nothing the program sees, whatever the address.
-            unsafe {
-                _mm_prefetch::<_MM_HINT_T0>(p);
-                _mm_prefetch::<_MM_HINT_T0>(p.wrapping_add(64));
-                if code & LEAF != 0 {
-                    _mm_prefetch::<_MM_HINT_T0>(p.wrapping_add(128));
-                }
+            // A node's boxes and child codes (not the padding after them), or a whole pack.
+            let bytes = match code & LEAF {
+                0 => size_of::<[[[f32; WIDTH]; 3]; 2]>() + size_of::<[u32; WIDTH]>(),
+                _ => size_of::<TriPack>(),
+            };
+            for line in (0..bytes).step_by(64) {
+                unsafe { _mm_prefetch::<_MM_HINT_T0>(p.wrapping_add(line)) };
             }
         }
         // Elsewhere no prefetch: the loads come when the child is visited.

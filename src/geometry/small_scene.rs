@@ -16,10 +16,12 @@
 //! The scan is compiled for AVX-512 and for AVX2 and picked at run time; a CPU with neither (or
 //! another architecture) uses the BVH.
 
-use super::bvh::SLAB_PAD;
+use super::bvh::slab;
+#[cfg(target_arch = "x86_64")]
+use super::wide::x86;
+use super::wide::{Isa, Mask, Wide, WideTest, supported};
 use super::{Hit, Prim, Watertight, intersect_triangle};
 use glam::Vec3A;
-use std::ops::{BitAnd, BitOr, Not};
 
 /// Triangles per step.
 const LANES: usize = 16;
@@ -40,15 +42,6 @@ struct Pack {
     plane: [u32; LANES],
     /// Lanes holding a triangle (bit per lane).
     valid: u32,
-}
-
-/// The SIMD extension the scan is compiled for (none elsewhere than on x86-64).
-#[derive(Clone, Copy)]
-enum Isa {
-    #[cfg(target_arch = "x86_64")]
-    Avx512,
-    #[cfg(target_arch = "x86_64")]
-    Avx2,
 }
 
 /// Every triangle of a small scene, in at most [`MAX_PACKS`] packs of up to sixteen, in scene
@@ -96,7 +89,7 @@ pub struct Query {
 /// One step's lanes: hit in `(tmin, tmax)` and to redo in the scalar test, and each lane's
 /// distance and barycentrics (meaningful in the hit lanes).
 #[derive(Clone, Copy)]
-struct Lanes<V: Wide> {
+struct Lanes<V: WideTest> {
     hit: V::Mask,
     redo: V::Mask,
     t: V,
@@ -108,7 +101,7 @@ impl Pack {
     /// The watertight test on lanes `at..at + V::WIDTH` in a vector `V`, each lane with the
     /// operations of [`intersect_triangle`] in its order.
     #[inline(always)]
-    fn test<V: Wide>(&self, at: usize, sh: &Watertight, tmin: f32, tmax: f32) -> Lanes<V> {
+    fn test<V: WideTest>(&self, at: usize, sh: &Watertight, tmin: f32, tmax: f32) -> Lanes<V> {
         let ko = [V::splat(sh.ko[0]), V::splat(sh.ko[1]), V::splat(sh.ko[2])];
         let s = [V::splat(sh.s[0]), V::splat(sh.s[1]), V::splat(sh.s[2])];
         let p0 = vertex(&self.v[0], at, sh.k, ko, s);
@@ -271,6 +264,8 @@ impl SmallScene {
     }
 
     /// The closest hit of the query's ray among its packs.
+    // (Off x86-64 no scan is built, and `isa` has no value.)
+    #[cfg_attr(not(target_arch = "x86_64"), allow(unused_variables))]
     pub fn intersect(&self, q: Query) -> Option<Hit> {
         // SAFETY: `isa` was detected on this CPU.
         match self.isa {
@@ -283,6 +278,7 @@ impl SmallScene {
 
     /// True if no triangle of the query's packs off the planes `skip` lies on its open segment
     /// (as [`super::bvh::Accel::unoccluded`]).
+    #[cfg_attr(not(target_arch = "x86_64"), allow(unused_variables))]
     pub fn unoccluded(&self, q: Query, skip: [u32; 2]) -> bool {
         // SAFETY: `isa` was detected on this CPU.
         match self.isa {
@@ -298,7 +294,7 @@ impl SmallScene {
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx512f")]
     fn unoccluded_avx512(&self, q: Query, skip: [u32; 2]) -> bool {
-        let packs = self.packs_of::<wide::Z16>(&q);
+        let packs = self.packs_of::<x86::Z16>(&q);
         packs == 0 || self.any_hit_avx512(&q, packs, skip)
     }
 
@@ -306,13 +302,13 @@ impl SmallScene {
     #[target_feature(enable = "avx512f")]
     #[inline(never)]
     fn any_hit_avx512(&self, q: &Query, packs: u32, skip: [u32; 2]) -> bool {
-        self.any_hit::<wide::Z16>(q, packs, skip)
+        self.any_hit::<x86::Z16>(q, packs, skip)
     }
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
     fn unoccluded_avx2(&self, q: Query, skip: [u32; 2]) -> bool {
-        let packs = self.packs_of::<wide::Y8>(&q);
+        let packs = self.packs_of::<x86::Y8>(&q);
         packs == 0 || self.any_hit_avx2(&q, packs, skip)
     }
 
@@ -320,54 +316,43 @@ impl SmallScene {
     #[target_feature(enable = "avx2")]
     #[inline(never)]
     fn any_hit_avx2(&self, q: &Query, packs: u32, skip: [u32; 2]) -> bool {
-        self.any_hit::<wide::Y8>(q, packs, skip)
+        self.any_hit::<x86::Y8>(q, packs, skip)
     }
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx512f")]
     fn intersect_avx512(&self, q: Query) -> Option<Hit> {
-        self.closest::<wide::Z16>(q)
+        self.closest::<x86::Z16>(q)
     }
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
     fn intersect_avx2(&self, q: Query) -> Option<Hit> {
-        self.closest::<wide::Y8>(q)
+        self.closest::<x86::Y8>(q)
     }
 
-    /// The packs the query scans (bit per pack). The slab test is [`super::bvh::Accel`]'s, lane
-    /// for lane: the same distances, so it enters the same boxes (far distances widened by
-    /// [`SLAB_PAD`]: rounding never culls a box the ray meets).
+    /// The packs the query scans (bit per pack): the tree's slab test ([`slab`]) on the packs'
+    /// boxes, so a ray enters the boxes the tree's nodes would let it enter.
     #[inline(always)]
     fn packs_of<V: Wide>(&self, q: &Query) -> u32 {
-        // Plain loops, no closures: a closure is not compiled with the caller's target features,
-        // and its vector operations would be calls.
-        let [lo, hi] = &self.boxes;
-        let mut m = 0;
-        let mut at = 0;
         match q.packs {
-            Packs::Only(packs) => return packs & self.all,
+            Packs::Only(packs) => packs & self.all,
             Packs::Entered => {
                 let (o, inv) = (q.o.to_array(), q.d.recip().to_array());
+                let mut m = 0;
+                // A plain loop, no closure: a closure is not compiled with the caller's target
+                // features, and its vector operations would be calls.
+                let mut at = 0;
                 while at < MAX_PACKS && self.all >> at != 0 {
-                    let (mut near, mut far) = (V::splat(q.tmin), V::splat(q.tmax));
-                    for a in 0..3 {
-                        // The distances to both planes, the nearer where the ray enters the slab:
-                        // the very distances the tree picks by the direction's sign (`inv` is
-                        // finite away from axis planes, so neither is NaN; lanes without a pack
-                        // are masked off below).
-                        let (org, inv) = (V::splat(o[a]), V::splat(inv[a]));
-                        let t0 = V::load(&lo[a], at).sub(org).mul(inv);
-                        let t1 = V::load(&hi[a], at).sub(org).mul(inv);
-                        near = near.max(t0.min(t1));
-                        far = far.min(t0.max(t1).mul(V::splat(SLAB_PAD)));
-                    }
-                    m |= near.le(far).bits() << at;
+                    m |= slab::<V, LANES>(&self.boxes, at, o, inv, q.tmin, q.tmax)
+                        .0
+                        .bits()
+                        << at;
                     at += V::WIDTH;
                 }
+                m & self.all
             }
         }
-        m & self.all
     }
 
     /// The closest hit, without a branch per lane or per pack: each lane keeps the least
@@ -376,7 +361,7 @@ impl SmallScene {
     /// the hit a scan in scene order that accepts a triangle only if it shortens the ray keeps.
     /// With a lane to redo in the scalar test (an edge function exactly zero), that scan itself.
     #[inline(always)]
-    fn closest<V: Wide>(&self, q: Query) -> Option<Hit> {
+    fn closest<V: WideTest>(&self, q: Query) -> Option<Hit> {
         let Query {
             o, d, tmin, tmax, ..
         } = q;
@@ -429,7 +414,7 @@ impl SmallScene {
     /// the ray; lanes to redo go to the scalar test.
     #[cold]
     #[inline(never)]
-    fn scan<V: Wide>(
+    fn scan<V: WideTest>(
         &self,
         sh: &Watertight,
         o: Vec3A,
@@ -474,7 +459,7 @@ impl SmallScene {
     /// Whether the segment is free of triangles off the planes `skip` in the packs `packs`: every
     /// pack is tested before one branch on the result; a lane to redo goes to the scalar test.
     #[inline(always)]
-    fn any_hit<V: Wide>(&self, q: &Query, packs: u32, skip: [u32; 2]) -> bool {
+    fn any_hit<V: WideTest>(&self, q: &Query, packs: u32, skip: [u32; 2]) -> bool {
         let Query {
             o, d, tmin, tmax, ..
         } = *q;
@@ -670,7 +655,7 @@ fn bounding_box(tris: &[[Vec3A; 3]]) -> [Vec3A; 2] {
 
 /// One vertex `v` of lanes `at..at + V::WIDTH` relative to the ray's origin, permuted by `k` and sheared.
 #[inline(always)]
-fn vertex<V: Wide>(
+fn vertex<V: WideTest>(
     v: &[[f32; LANES]; 3],
     at: usize,
     k: [usize; 3],
@@ -683,306 +668,4 @@ fn vertex<V: Wide>(
         V::load(&v[k[1]], at).sub(ko[1]).add(s[1].mul(z)),
         z.mul(s[2]),
     ]
-}
-
-/// The SIMD extensions of this CPU the scan is compiled for, widest first.
-fn supported() -> Vec<Isa> {
-    #[allow(unused_mut)]
-    let mut isa = Vec::new();
-    #[cfg(target_arch = "x86_64")]
-    {
-        if std::arch::is_x86_feature_detected!("avx512f") {
-            isa.push(Isa::Avx512);
-        }
-        if std::arch::is_x86_feature_detected!("avx2") {
-            isa.push(Isa::Avx2);
-        }
-    }
-    isa
-}
-
-/// A lane mask of [`Wide`] vectors: a bit per lane (AVX-512's mask registers) or a vector of
-/// all-ones and all-zeros lanes (AVX2, whose blends and logic take those without a round trip
-/// through integer bits).
-trait Mask: Copy + BitAnd<Output = Self> + BitOr<Output = Self> + Not<Output = Self> {
-    /// The mask with lane `i` set where bit `i` of `bits` is.
-    fn from_bits(bits: u32) -> Self;
-    /// Bit `i` set where lane `i` is.
-    fn bits(self) -> u32;
-}
-
-/// [`Self::WIDTH`] `f32` lanes: the operations the test needs, each lane rounded as the scalar
-/// operation (comparisons give a mask; `lt` and `eq` are false on NaN, as in Rust).
-trait Wide: Copy {
-    type Mask: Mask;
-    /// Lanes per vector: a pack takes `LANES / WIDTH` steps.
-    const WIDTH: usize;
-    fn splat(x: f32) -> Self;
-    /// Lanes `at..at + WIDTH` of `a`.
-    fn load(a: &[f32; LANES], at: usize) -> Self;
-    /// The bits of lanes `at..at + WIDTH` of `a`.
-    fn load_bits(a: &[u32; LANES], at: usize) -> Self;
-    /// The lanes, in the first `WIDTH` elements.
-    fn store(self) -> [f32; LANES];
-    fn add(self, b: Self) -> Self;
-    fn sub(self, b: Self) -> Self;
-    fn mul(self, b: Self) -> Self;
-    fn div(self, b: Self) -> Self;
-    /// `a` in the lanes of `mask`, `b` in the others.
-    fn select(mask: Self::Mask, a: Self, b: Self) -> Self;
-    /// The least lane (no lane is NaN).
-    fn reduce_min(self) -> f32;
-    fn lane(self, lane: usize) -> f32 {
-        self.store()[lane]
-    }
-    /// The lane-wise maximum (`b` where either is NaN, as `maxps` and glam's `max`).
-    fn max(self, b: Self) -> Self;
-    /// The lane-wise minimum (`b` where either is NaN, as `minps` and glam's `min`).
-    fn min(self, b: Self) -> Self;
-    fn lt(self, b: Self) -> Self::Mask;
-    fn le(self, b: Self) -> Self::Mask;
-    fn eq(self, b: Self) -> Self::Mask;
-    /// The lanes where the sign bits of `a`, `b` and `c` are not all equal.
-    fn signs_differ(a: Self, b: Self, c: Self) -> Self::Mask;
-}
-
-/// The two implementations of [`Wide`]: one AVX-512 vector of sixteen lanes, or one AVX2 vector
-/// of eight (a pack in two steps, the second skipped where the pack holds eight triangles or
-/// fewer). Their functions are inlined into the `#[target_feature]` callers above, which alone
-/// call them.
-#[cfg(target_arch = "x86_64")]
-mod wide {
-    use super::{LANES, Mask, Wide};
-    use std::arch::x86_64::*;
-    use std::ops::{BitAnd, BitOr, Not};
-
-    #[derive(Clone, Copy)]
-    pub struct Z16(__m512);
-
-    #[derive(Clone, Copy)]
-    pub struct Y8(__m256);
-
-    /// [`Y8`]'s mask: each lane's sign bit, which blends and `movemask` read (comparisons set
-    /// the whole lane).
-    #[derive(Clone, Copy)]
-    pub struct M8(__m256);
-
-    /// AVX-512's masks are bits already.
-    impl Mask for u32 {
-        #[inline(always)]
-        fn from_bits(bits: u32) -> Self {
-            bits
-        }
-        #[inline(always)]
-        fn bits(self) -> u32 {
-            self
-        }
-    }
-
-    // SAFETY (every block below): only reached from functions compiled with the extension,
-    // called after it was detected on this CPU; loads and stores are of whole vectors within
-    // arrays whose bounds the slices check.
-    impl BitAnd for M8 {
-        type Output = Self;
-        #[inline(always)]
-        fn bitand(self, b: Self) -> Self {
-            Self(unsafe { _mm256_and_ps(self.0, b.0) })
-        }
-    }
-
-    impl BitOr for M8 {
-        type Output = Self;
-        #[inline(always)]
-        fn bitor(self, b: Self) -> Self {
-            Self(unsafe { _mm256_or_ps(self.0, b.0) })
-        }
-    }
-
-    impl Not for M8 {
-        type Output = Self;
-        #[inline(always)]
-        fn not(self) -> Self {
-            Self(unsafe { _mm256_xor_ps(self.0, _mm256_castsi256_ps(_mm256_set1_epi32(-1))) })
-        }
-    }
-
-    impl Mask for M8 {
-        /// Lane i: bit i of `bits` spread over the lane's 32 bits.
-        #[inline(always)]
-        fn from_bits(bits: u32) -> Self {
-            unsafe {
-                let lane_bits = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
-                let m = _mm256_and_si256(_mm256_set1_epi32(bits as i32), lane_bits);
-                Self(_mm256_castsi256_ps(_mm256_cmpeq_epi32(m, lane_bits)))
-            }
-        }
-        #[inline(always)]
-        fn bits(self) -> u32 {
-            unsafe { _mm256_movemask_ps(self.0) as u32 }
-        }
-    }
-
-    impl Wide for Z16 {
-        type Mask = u32;
-        const WIDTH: usize = 16;
-        #[inline(always)]
-        fn splat(x: f32) -> Self {
-            Self(unsafe { _mm512_set1_ps(x) })
-        }
-        #[inline(always)]
-        fn load(a: &[f32; LANES], at: usize) -> Self {
-            Self(unsafe { _mm512_loadu_ps(a[at..at + 16].as_ptr()) })
-        }
-        #[inline(always)]
-        fn load_bits(a: &[u32; LANES], at: usize) -> Self {
-            Self(unsafe { _mm512_castsi512_ps(_mm512_loadu_si512(a[at..at + 16].as_ptr().cast())) })
-        }
-        #[inline(always)]
-        fn store(self) -> [f32; LANES] {
-            let mut a = [0.0; LANES];
-            unsafe { _mm512_storeu_ps(a.as_mut_ptr(), self.0) };
-            a
-        }
-        #[inline(always)]
-        fn add(self, b: Self) -> Self {
-            Self(unsafe { _mm512_add_ps(self.0, b.0) })
-        }
-        #[inline(always)]
-        fn sub(self, b: Self) -> Self {
-            Self(unsafe { _mm512_sub_ps(self.0, b.0) })
-        }
-        #[inline(always)]
-        fn mul(self, b: Self) -> Self {
-            Self(unsafe { _mm512_mul_ps(self.0, b.0) })
-        }
-        #[inline(always)]
-        fn div(self, b: Self) -> Self {
-            Self(unsafe { _mm512_div_ps(self.0, b.0) })
-        }
-        #[inline(always)]
-        fn select(mask: u32, a: Self, b: Self) -> Self {
-            Self(unsafe { _mm512_mask_blend_ps(mask as u16, b.0, a.0) })
-        }
-        #[inline(always)]
-        fn reduce_min(self) -> f32 {
-            unsafe { _mm512_reduce_min_ps(self.0) }
-        }
-        #[inline(always)]
-        fn max(self, b: Self) -> Self {
-            Self(unsafe { _mm512_max_ps(self.0, b.0) })
-        }
-        #[inline(always)]
-        fn min(self, b: Self) -> Self {
-            Self(unsafe { _mm512_min_ps(self.0, b.0) })
-        }
-        #[inline(always)]
-        fn lt(self, b: Self) -> u32 {
-            unsafe { _mm512_cmp_ps_mask::<_CMP_LT_OQ>(self.0, b.0) as u32 }
-        }
-        #[inline(always)]
-        fn le(self, b: Self) -> u32 {
-            unsafe { _mm512_cmp_ps_mask::<_CMP_LE_OQ>(self.0, b.0) as u32 }
-        }
-        #[inline(always)]
-        fn eq(self, b: Self) -> u32 {
-            unsafe { _mm512_cmp_ps_mask::<_CMP_EQ_OQ>(self.0, b.0) as u32 }
-        }
-        #[inline(always)]
-        fn signs_differ(a: Self, b: Self, c: Self) -> u32 {
-            unsafe {
-                let (a, b, c) = (
-                    _mm512_castps_si512(a.0),
-                    _mm512_castps_si512(b.0),
-                    _mm512_castps_si512(c.0),
-                );
-                let x = _mm512_or_si512(_mm512_xor_si512(a, b), _mm512_xor_si512(a, c));
-                _mm512_cmplt_epi32_mask(x, _mm512_setzero_si512()) as u32
-            }
-        }
-    }
-
-    impl Wide for Y8 {
-        type Mask = M8;
-        const WIDTH: usize = 8;
-        #[inline(always)]
-        fn splat(x: f32) -> Self {
-            Self(unsafe { _mm256_set1_ps(x) })
-        }
-        #[inline(always)]
-        fn load(a: &[f32; LANES], at: usize) -> Self {
-            Self(unsafe { _mm256_loadu_ps(a[at..at + 8].as_ptr()) })
-        }
-        #[inline(always)]
-        fn load_bits(a: &[u32; LANES], at: usize) -> Self {
-            Self(unsafe { _mm256_castsi256_ps(_mm256_loadu_si256(a[at..at + 8].as_ptr().cast())) })
-        }
-        #[inline(always)]
-        fn store(self) -> [f32; LANES] {
-            let mut a = [0.0; LANES];
-            unsafe { _mm256_storeu_ps(a.as_mut_ptr(), self.0) };
-            a
-        }
-        #[inline(always)]
-        fn add(self, b: Self) -> Self {
-            Self(unsafe { _mm256_add_ps(self.0, b.0) })
-        }
-        #[inline(always)]
-        fn sub(self, b: Self) -> Self {
-            Self(unsafe { _mm256_sub_ps(self.0, b.0) })
-        }
-        #[inline(always)]
-        fn mul(self, b: Self) -> Self {
-            Self(unsafe { _mm256_mul_ps(self.0, b.0) })
-        }
-        #[inline(always)]
-        fn div(self, b: Self) -> Self {
-            Self(unsafe { _mm256_div_ps(self.0, b.0) })
-        }
-        #[inline(always)]
-        fn select(mask: M8, a: Self, b: Self) -> Self {
-            Self(unsafe { _mm256_blendv_ps(b.0, a.0, mask.0) })
-        }
-        #[inline(always)]
-        fn reduce_min(self) -> f32 {
-            unsafe {
-                let m = _mm_min_ps(
-                    _mm256_castps256_ps128(self.0),
-                    _mm256_extractf128_ps::<1>(self.0),
-                );
-                let m = _mm_min_ps(m, _mm_movehl_ps(m, m));
-                _mm_cvtss_f32(_mm_min_ss(m, _mm_shuffle_ps::<1>(m, m)))
-            }
-        }
-        #[inline(always)]
-        fn max(self, b: Self) -> Self {
-            Self(unsafe { _mm256_max_ps(self.0, b.0) })
-        }
-        #[inline(always)]
-        fn min(self, b: Self) -> Self {
-            Self(unsafe { _mm256_min_ps(self.0, b.0) })
-        }
-        #[inline(always)]
-        fn lt(self, b: Self) -> M8 {
-            M8(unsafe { _mm256_cmp_ps::<_CMP_LT_OQ>(self.0, b.0) })
-        }
-        #[inline(always)]
-        fn le(self, b: Self) -> M8 {
-            M8(unsafe { _mm256_cmp_ps::<_CMP_LE_OQ>(self.0, b.0) })
-        }
-        #[inline(always)]
-        fn eq(self, b: Self) -> M8 {
-            M8(unsafe { _mm256_cmp_ps::<_CMP_EQ_OQ>(self.0, b.0) })
-        }
-        /// Only each lane's sign bit is set right: the bit that blends and `movemask` read, and
-        /// that the masks' bitwise logic combines lane by lane.
-        #[inline(always)]
-        fn signs_differ(a: Self, b: Self, c: Self) -> M8 {
-            unsafe {
-                M8(_mm256_or_ps(
-                    _mm256_xor_ps(a.0, b.0),
-                    _mm256_xor_ps(a.0, c.0),
-                ))
-            }
-        }
-    }
 }

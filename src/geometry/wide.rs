@@ -1,0 +1,380 @@
+//! SIMD lanes for the geometry's box and triangle tests: [`Wide`], what a slab test needs (the
+//! tree's nodes and the small-scene scan's pack boxes), and [`WideTest`], what the watertight
+//! triangle test needs besides (the scan's packs). Each lane is rounded as the scalar operation,
+//! so a wide test answers as the scalar one, bit for bit.
+//!
+//! Implementations: one AVX-512 vector of sixteen lanes ([`x86::Z16`]) and one AVX2 vector of
+//! eight ([`x86::Y8`]), whose functions are inlined into `#[target_feature]` callers picked at
+//! run time ([`supported`]); and four lanes of glam's `Vec4` ([`Q4`]: SSE2 on x86-64, NEON on
+//! aarch64), which every CPU runs.
+
+use glam::{BVec4A, Vec4};
+use std::ops::{BitAnd, BitOr, Not};
+
+/// A SIMD extension the scan and the tree's node test are compiled for (none elsewhere than on
+/// x86-64).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum Isa {
+    #[cfg(target_arch = "x86_64")]
+    Avx512,
+    #[cfg(target_arch = "x86_64")]
+    Avx2,
+}
+
+/// The SIMD extensions of this CPU that [`Isa`] names, widest first.
+pub(super) fn supported() -> Vec<Isa> {
+    #[allow(unused_mut)]
+    let mut isa = Vec::new();
+    #[cfg(target_arch = "x86_64")]
+    {
+        if std::arch::is_x86_feature_detected!("avx512f") {
+            isa.push(Isa::Avx512);
+        }
+        if std::arch::is_x86_feature_detected!("avx2") {
+            isa.push(Isa::Avx2);
+        }
+    }
+    isa
+}
+
+/// A lane mask of [`Wide`] vectors: a bit per lane (AVX-512's mask registers, [`Q4`]) or a
+/// vector of all-ones and all-zeros lanes (AVX2, whose blends and logic take those without a
+/// round trip through integer bits).
+pub(super) trait Mask:
+    Copy + BitAnd<Output = Self> + BitOr<Output = Self> + Not<Output = Self>
+{
+    /// The mask with lane `i` set where bit `i` of `bits` is.
+    fn from_bits(bits: u32) -> Self;
+    /// Bit `i` set where lane `i` is.
+    fn bits(self) -> u32;
+}
+
+/// Masks that are bits already.
+impl Mask for u32 {
+    #[inline(always)]
+    fn from_bits(bits: u32) -> Self {
+        bits
+    }
+    #[inline(always)]
+    fn bits(self) -> u32 {
+        self
+    }
+}
+
+/// [`Self::WIDTH`] `f32` lanes with what a slab test needs (comparisons give a mask, false on
+/// NaN as in Rust).
+pub(super) trait Wide: Copy {
+    type Mask: Mask;
+    /// Lanes per vector: sixteen lanes take `16 / WIDTH` steps.
+    const WIDTH: usize;
+    fn splat(x: f32) -> Self;
+    /// Lanes `at..at + WIDTH` of `a`.
+    fn load(a: &[f32], at: usize) -> Self;
+    /// The lanes into `a[at..at + WIDTH]`.
+    fn store_at(self, a: &mut [f32], at: usize);
+    fn sub(self, b: Self) -> Self;
+    fn mul(self, b: Self) -> Self;
+    /// The lane-wise maximum (`b` where either is NaN, as `maxps` and glam's `max`).
+    fn max(self, b: Self) -> Self;
+    /// The lane-wise minimum (`b` where either is NaN, as `minps` and glam's `min`).
+    fn min(self, b: Self) -> Self;
+    fn le(self, b: Self) -> Self::Mask;
+}
+
+/// What the watertight triangle test needs beyond [`Wide`] (the scan's packs).
+pub(super) trait WideTest: Wide {
+    /// The bits of lanes `at..at + WIDTH` of `a`.
+    fn load_bits(a: &[u32], at: usize) -> Self;
+    fn add(self, b: Self) -> Self;
+    fn div(self, b: Self) -> Self;
+    /// `a` in the lanes of `mask`, `b` in the others.
+    fn select(mask: Self::Mask, a: Self, b: Self) -> Self;
+    /// The least lane (no lane is NaN).
+    fn reduce_min(self) -> f32;
+    fn lt(self, b: Self) -> Self::Mask;
+    fn eq(self, b: Self) -> Self::Mask;
+    /// The lanes where the sign bits of `a`, `b` and `c` are not all equal.
+    fn signs_differ(a: Self, b: Self, c: Self) -> Self::Mask;
+    /// The lanes, in the first `WIDTH` elements.
+    #[inline(always)]
+    fn store(self) -> [f32; 16] {
+        let mut a = [0.0; 16];
+        self.store_at(&mut a, 0);
+        a
+    }
+    #[inline(always)]
+    fn lane(self, lane: usize) -> f32 {
+        self.store()[lane]
+    }
+}
+
+/// Four lanes of glam's `Vec4`, masks as bits: the baseline every CPU runs.
+#[derive(Clone, Copy)]
+pub(super) struct Q4(Vec4);
+
+impl Wide for Q4 {
+    type Mask = u32;
+    const WIDTH: usize = 4;
+    #[inline(always)]
+    fn splat(x: f32) -> Self {
+        Self(Vec4::splat(x))
+    }
+    #[inline(always)]
+    fn load(a: &[f32], at: usize) -> Self {
+        Self(Vec4::from_slice(&a[at..at + 4]))
+    }
+    #[inline(always)]
+    fn store_at(self, a: &mut [f32], at: usize) {
+        self.0.write_to_slice(&mut a[at..at + 4]);
+    }
+    #[inline(always)]
+    fn sub(self, b: Self) -> Self {
+        Self(self.0 - b.0)
+    }
+    #[inline(always)]
+    fn mul(self, b: Self) -> Self {
+        Self(self.0 * b.0)
+    }
+    #[inline(always)]
+    fn max(self, b: Self) -> Self {
+        Self(self.0.max(b.0))
+    }
+    #[inline(always)]
+    fn min(self, b: Self) -> Self {
+        Self(self.0.min(b.0))
+    }
+    #[inline(always)]
+    fn le(self, b: Self) -> u32 {
+        let m: BVec4A = self.0.cmple(b.0);
+        m.bitmask()
+    }
+}
+
+/// The x86-64 implementations: one AVX-512 vector of sixteen lanes, or one AVX2 vector of eight
+/// (sixteen lanes in two steps).
+#[cfg(target_arch = "x86_64")]
+pub(super) mod x86 {
+    use super::{Mask, Wide, WideTest};
+    use std::arch::x86_64::*;
+    use std::ops::{BitAnd, BitOr, Not};
+
+    #[derive(Clone, Copy)]
+    pub struct Z16(__m512);
+
+    #[derive(Clone, Copy)]
+    pub struct Y8(__m256);
+
+    /// [`Y8`]'s mask: each lane's sign bit, which blends and `movemask` read (comparisons set
+    /// the whole lane).
+    #[derive(Clone, Copy)]
+    pub struct M8(__m256);
+
+    // SAFETY (every block below): only reached from functions compiled with the extension,
+    // called after it was detected on this CPU; loads and stores are of whole vectors within
+    // arrays whose bounds the slices check.
+    impl BitAnd for M8 {
+        type Output = Self;
+        #[inline(always)]
+        fn bitand(self, b: Self) -> Self {
+            Self(unsafe { _mm256_and_ps(self.0, b.0) })
+        }
+    }
+
+    impl BitOr for M8 {
+        type Output = Self;
+        #[inline(always)]
+        fn bitor(self, b: Self) -> Self {
+            Self(unsafe { _mm256_or_ps(self.0, b.0) })
+        }
+    }
+
+    impl Not for M8 {
+        type Output = Self;
+        #[inline(always)]
+        fn not(self) -> Self {
+            Self(unsafe { _mm256_xor_ps(self.0, _mm256_castsi256_ps(_mm256_set1_epi32(-1))) })
+        }
+    }
+
+    impl Mask for M8 {
+        /// Lane i: bit i of `bits` spread over the lane's 32 bits.
+        #[inline(always)]
+        fn from_bits(bits: u32) -> Self {
+            unsafe {
+                let lane_bits = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
+                let m = _mm256_and_si256(_mm256_set1_epi32(bits as i32), lane_bits);
+                Self(_mm256_castsi256_ps(_mm256_cmpeq_epi32(m, lane_bits)))
+            }
+        }
+        #[inline(always)]
+        fn bits(self) -> u32 {
+            unsafe { _mm256_movemask_ps(self.0) as u32 }
+        }
+    }
+
+    impl Wide for Z16 {
+        type Mask = u32;
+        const WIDTH: usize = 16;
+        #[inline(always)]
+        fn splat(x: f32) -> Self {
+            Self(unsafe { _mm512_set1_ps(x) })
+        }
+        #[inline(always)]
+        fn load(a: &[f32], at: usize) -> Self {
+            Self(unsafe { _mm512_loadu_ps(a[at..at + 16].as_ptr()) })
+        }
+        #[inline(always)]
+        fn store_at(self, a: &mut [f32], at: usize) {
+            unsafe { _mm512_storeu_ps(a[at..at + 16].as_mut_ptr(), self.0) };
+        }
+        #[inline(always)]
+        fn sub(self, b: Self) -> Self {
+            Self(unsafe { _mm512_sub_ps(self.0, b.0) })
+        }
+        #[inline(always)]
+        fn mul(self, b: Self) -> Self {
+            Self(unsafe { _mm512_mul_ps(self.0, b.0) })
+        }
+        #[inline(always)]
+        fn max(self, b: Self) -> Self {
+            Self(unsafe { _mm512_max_ps(self.0, b.0) })
+        }
+        #[inline(always)]
+        fn min(self, b: Self) -> Self {
+            Self(unsafe { _mm512_min_ps(self.0, b.0) })
+        }
+        #[inline(always)]
+        fn le(self, b: Self) -> u32 {
+            unsafe { _mm512_cmp_ps_mask::<_CMP_LE_OQ>(self.0, b.0) as u32 }
+        }
+    }
+
+    impl WideTest for Z16 {
+        #[inline(always)]
+        fn load_bits(a: &[u32], at: usize) -> Self {
+            Self(unsafe { _mm512_castsi512_ps(_mm512_loadu_si512(a[at..at + 16].as_ptr().cast())) })
+        }
+        #[inline(always)]
+        fn add(self, b: Self) -> Self {
+            Self(unsafe { _mm512_add_ps(self.0, b.0) })
+        }
+        #[inline(always)]
+        fn div(self, b: Self) -> Self {
+            Self(unsafe { _mm512_div_ps(self.0, b.0) })
+        }
+        #[inline(always)]
+        fn select(mask: u32, a: Self, b: Self) -> Self {
+            Self(unsafe { _mm512_mask_blend_ps(mask as u16, b.0, a.0) })
+        }
+        #[inline(always)]
+        fn reduce_min(self) -> f32 {
+            unsafe { _mm512_reduce_min_ps(self.0) }
+        }
+        #[inline(always)]
+        fn lt(self, b: Self) -> u32 {
+            unsafe { _mm512_cmp_ps_mask::<_CMP_LT_OQ>(self.0, b.0) as u32 }
+        }
+        #[inline(always)]
+        fn eq(self, b: Self) -> u32 {
+            unsafe { _mm512_cmp_ps_mask::<_CMP_EQ_OQ>(self.0, b.0) as u32 }
+        }
+        #[inline(always)]
+        fn signs_differ(a: Self, b: Self, c: Self) -> u32 {
+            unsafe {
+                let (a, b, c) = (
+                    _mm512_castps_si512(a.0),
+                    _mm512_castps_si512(b.0),
+                    _mm512_castps_si512(c.0),
+                );
+                let x = _mm512_or_si512(_mm512_xor_si512(a, b), _mm512_xor_si512(a, c));
+                _mm512_cmplt_epi32_mask(x, _mm512_setzero_si512()) as u32
+            }
+        }
+    }
+
+    impl Wide for Y8 {
+        type Mask = M8;
+        const WIDTH: usize = 8;
+        #[inline(always)]
+        fn splat(x: f32) -> Self {
+            Self(unsafe { _mm256_set1_ps(x) })
+        }
+        #[inline(always)]
+        fn load(a: &[f32], at: usize) -> Self {
+            Self(unsafe { _mm256_loadu_ps(a[at..at + 8].as_ptr()) })
+        }
+        #[inline(always)]
+        fn store_at(self, a: &mut [f32], at: usize) {
+            unsafe { _mm256_storeu_ps(a[at..at + 8].as_mut_ptr(), self.0) };
+        }
+        #[inline(always)]
+        fn sub(self, b: Self) -> Self {
+            Self(unsafe { _mm256_sub_ps(self.0, b.0) })
+        }
+        #[inline(always)]
+        fn mul(self, b: Self) -> Self {
+            Self(unsafe { _mm256_mul_ps(self.0, b.0) })
+        }
+        #[inline(always)]
+        fn max(self, b: Self) -> Self {
+            Self(unsafe { _mm256_max_ps(self.0, b.0) })
+        }
+        #[inline(always)]
+        fn min(self, b: Self) -> Self {
+            Self(unsafe { _mm256_min_ps(self.0, b.0) })
+        }
+        #[inline(always)]
+        fn le(self, b: Self) -> M8 {
+            M8(unsafe { _mm256_cmp_ps::<_CMP_LE_OQ>(self.0, b.0) })
+        }
+    }
+
+    impl WideTest for Y8 {
+        #[inline(always)]
+        fn load_bits(a: &[u32], at: usize) -> Self {
+            Self(unsafe { _mm256_castsi256_ps(_mm256_loadu_si256(a[at..at + 8].as_ptr().cast())) })
+        }
+        #[inline(always)]
+        fn add(self, b: Self) -> Self {
+            Self(unsafe { _mm256_add_ps(self.0, b.0) })
+        }
+        #[inline(always)]
+        fn div(self, b: Self) -> Self {
+            Self(unsafe { _mm256_div_ps(self.0, b.0) })
+        }
+        #[inline(always)]
+        fn select(mask: M8, a: Self, b: Self) -> Self {
+            Self(unsafe { _mm256_blendv_ps(b.0, a.0, mask.0) })
+        }
+        #[inline(always)]
+        fn reduce_min(self) -> f32 {
+            unsafe {
+                let m = _mm_min_ps(
+                    _mm256_castps256_ps128(self.0),
+                    _mm256_extractf128_ps::<1>(self.0),
+                );
+                let m = _mm_min_ps(m, _mm_movehl_ps(m, m));
+                _mm_cvtss_f32(_mm_min_ss(m, _mm_shuffle_ps::<1>(m, m)))
+            }
+        }
+        #[inline(always)]
+        fn lt(self, b: Self) -> M8 {
+            M8(unsafe { _mm256_cmp_ps::<_CMP_LT_OQ>(self.0, b.0) })
+        }
+        #[inline(always)]
+        fn eq(self, b: Self) -> M8 {
+            M8(unsafe { _mm256_cmp_ps::<_CMP_EQ_OQ>(self.0, b.0) })
+        }
+        /// Only each lane's sign bit is set right: the bit that blends and `movemask` read, and
+        /// that the masks' bitwise logic combines lane by lane.
+        #[inline(always)]
+        fn signs_differ(a: Self, b: Self, c: Self) -> M8 {
+            unsafe {
+                M8(_mm256_or_ps(
+                    _mm256_xor_ps(a.0, b.0),
+                    _mm256_xor_ps(a.0, c.0),
+                ))
+            }
+        }
+    }
+}
