@@ -141,11 +141,17 @@ const EMPTY_NODE: Node = Node {
 
 /// The slab test (Kay and Kajiya 1986) of lanes `at..at + V::WIDTH` of the boxes `b` (low and
 /// high bounds by axis and lane) against the ray from `org` with inverse direction `inv` over
-/// `[tmin, tmax]`: the lanes it enters, and where. Per axis the bound met first is picked by the
-/// direction's sign, so an empty box (low +∞, high −∞) is never entered; far distances are
-/// widened by [`SLAB_PAD`]. `inv` must be finite (rays near an axis plane take another test).
+/// `[tmin, tmax]`: the lanes it enters, and where. Far distances are widened by [`SLAB_PAD`].
+/// `inv` must be finite (rays near an axis plane take another test).
+///
+/// Per axis the bound met first is picked either `BY_SIGN` of the direction, a branch, or by
+/// `min` and `max` of both distances, without one: the same distances either way. The tree picks
+/// by sign: a ray takes the same branches at every node, and the branch-free test ran the
+/// 200k-triangle mesh 0.78× as fast. The small-scene scan tests its boxes once a ray, where the
+/// branches go either way at random, and goes without (the branches ran the Cornell box 0.95× as
+/// fast). By sign an empty box (low +∞, high −∞) is never entered; without, it is.
 #[inline(always)]
-pub(super) fn slab<V: Wide, const N: usize>(
+pub(super) fn slab<V: Wide, const N: usize, const BY_SIGN: bool>(
     b: &[[[f32; N]; 3]; 2],
     at: usize,
     org: [f32; 3],
@@ -155,14 +161,21 @@ pub(super) fn slab<V: Wide, const N: usize>(
 ) -> (V::Mask, V) {
     let (mut near, mut far) = (V::splat(tmin), V::splat(tmax));
     for a in 0..3 {
-        let (n, f) = if inv[a] < 0.0 {
-            (&b[1][a], &b[0][a])
+        let (o, i) = (V::splat(org[a]), V::splat(inv[a]));
+        let (t_near, t_far) = if BY_SIGN {
+            let (n, f) = if inv[a] < 0.0 {
+                (&b[1][a], &b[0][a])
+            } else {
+                (&b[0][a], &b[1][a])
+            };
+            (V::load(n, at).sub(o).mul(i), V::load(f, at).sub(o).mul(i))
         } else {
-            (&b[0][a], &b[1][a])
+            let t0 = V::load(&b[0][a], at).sub(o).mul(i);
+            let t1 = V::load(&b[1][a], at).sub(o).mul(i);
+            (t0.min(t1), t0.max(t1))
         };
-        let (org, inv) = (V::splat(org[a]), V::splat(inv[a]));
-        near = near.max(V::load(n, at).sub(org).mul(inv));
-        far = far.min(V::load(f, at).sub(org).mul(inv).mul(V::splat(SLAB_PAD)));
+        near = near.max(t_near);
+        far = far.min(t_far.mul(V::splat(SLAB_PAD)));
     }
     (near.le(far), near)
 }
@@ -301,7 +314,8 @@ impl Ray4 {
                 }
                 m
             } else {
-                let (m, n) = slab::<V, WIDTH>(&node.b, at, self.org, self.inv, self.tmin, tmax);
+                let (m, n) =
+                    slab::<V, WIDTH, true>(&node.b, at, self.org, self.inv, self.tmin, tmax);
                 n.store_at(&mut near, at);
                 m
             };

@@ -331,8 +331,9 @@ impl SmallScene {
         self.closest::<x86::Y8>(q)
     }
 
-    /// The packs the query scans (bit per pack): the tree's slab test ([`slab`]) on the packs'
-    /// boxes, so a ray enters the boxes the tree's nodes would let it enter.
+    /// The packs the query scans (bit per pack): the tree's slab test ([`slab`], its distances
+    /// bit for bit) on the packs' boxes, so a ray enters the boxes the tree's nodes would let it
+    /// enter (lanes without a pack, whose empty boxes the branch-free test enters, masked off).
     #[inline(always)]
     fn packs_of<V: Wide>(&self, q: &Query) -> u32 {
         match q.packs {
@@ -344,7 +345,7 @@ impl SmallScene {
                 // features, and its vector operations would be calls.
                 let mut at = 0;
                 while at < MAX_PACKS && self.all >> at != 0 {
-                    m |= slab::<V, LANES>(&self.boxes, at, o, inv, q.tmin, q.tmax)
+                    m |= slab::<V, LANES, false>(&self.boxes, at, o, inv, q.tmin, q.tmax)
                         .0
                         .bits()
                         << at;
