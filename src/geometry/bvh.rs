@@ -3,7 +3,8 @@
 //! Wald, Benthin and Boulos 2008, "Getting rid of packets"). Each node holds up to sixteen
 //! children's boxes, tested against a ray in one AVX-512 vector, two AVX2 ones or four of glam's
 //! `Vec4` (SSE2 on x86-64, NEON on aarch64), whichever the CPU has ([`super::wide`]); leaves hold
-//! triangles in packs of four, tested in a `Vec4`.
+//! up to eight triangles in one pack ([`super::triangle_pack`]), tested in one AVX2 vector (with
+//! AVX-512 too) or two `Vec4`s.
 //!
 //! The tree's shape comes from a binary tree built top-down by the binned surface-area heuristic
 //! ([`sah_tree`], in O(n log n) whatever the input), collapsed here to sixteen children per node,
@@ -23,11 +24,12 @@
 //!   to the scene), which is conservative and few nodes for a ray along an axis.
 
 use super::small_scene::{Packs, Query, SmallScene};
+use super::triangle_pack::Pack;
 #[cfg(target_arch = "x86_64")]
 use super::wide::x86;
-use super::wide::{Isa, Mask, Q4, Wide, supported};
-use super::{Hit, Prim, Watertight, intersect_triangle};
-use glam::{Vec3A, Vec4};
+use super::wide::{Isa, Mask, Q4, Wide, WideTest, supported};
+use super::{Hit, Prim, Watertight};
+use glam::Vec3A;
 use std::cell::RefCell;
 
 thread_local! {
@@ -116,7 +118,10 @@ const ONE_PACK: u32 = 1 << 30;
 const EMPTY: u32 = u32::MAX;
 /// At most this many primitives per leaf (one pack of triangles): the binary tree is split down
 /// to leaves of this many or fewer.
-const LEAF_PRIMS: u32 = 4;
+const LEAF_PRIMS: u32 = 8;
+/// Lanes of a leaf's triangle packs: a leaf in one pack, one AVX2 vector (with AVX-512 as well:
+/// packs of sixteen in one AVX-512 vector traced no faster, 0.99–1.01×).
+const LEAF_LANES: usize = LEAF_PRIMS as usize;
 /// 1 + 2γ₃ (pbrt-v4): the factor that makes the slab test conservative under rounding.
 pub(super) const SLAB_PAD: f32 =
     1.0 + 2.0 * (3.0 * f32::EPSILON * 0.5) / (1.0 - 3.0 * f32::EPSILON * 0.5);
@@ -180,19 +185,6 @@ pub(super) fn slab<V: Wide, const N: usize, const BY_SIGN: bool>(
     (near.le(far), near)
 }
 
-/// Four triangles, one per lane: `v[vertex][axis]`.
-#[derive(Clone, Copy)]
-#[repr(C, align(64))]
-struct TriPack {
-    v: [[Vec4; 3]; 3],
-    /// Each lane's primitive index in scene order.
-    prim: [u32; 4],
-    /// Each lane's plane key ([`Accel::plane_of`]).
-    plane: [u32; 4],
-    /// Lanes holding a triangle (bit per lane).
-    valid: u32,
-}
-
 /// A leaf: its triangle packs and its other primitives, as ranges.
 #[derive(Clone, Copy)]
 struct Leaf {
@@ -205,7 +197,7 @@ pub struct Accel {
     /// Node 0 is the root (when there are primitives).
     nodes: Vec<Node>,
     leaves: Vec<Leaf>,
-    packs: Vec<TriPack>,
+    packs: Vec<Pack<LEAF_LANES>>,
     /// Spheres and disks, with their index in scene order (their plane key is [`NO_PLANE`]).
     others: Vec<(Prim, u32)>,
     /// Per shape: all its primitives are triangles in one plane.
@@ -251,8 +243,6 @@ fn planar_shapes(prims: &[Prim], prim_shape: &[u32], shapes: usize) -> Vec<bool>
 
 /// A ray prepared for the tree's tests.
 struct Ray4 {
-    o: Vec3A,
-    d: Vec3A,
     tmin: f32,
     /// Slab test: origin and inverse direction per axis.
     org: [f32; 3],
@@ -262,36 +252,12 @@ struct Ray4 {
     segment: Option<[[f32; 3]; 2]>,
 }
 
-/// The watertight test's part of a ray (made on its first triangle pack: many shadow rays meet
-/// none): the axes permuted so that z is the dominant direction component, the permuted origin
-/// and the shear (sx, sy, sz), each splat over the lanes.
-struct Shear4 {
-    k: [usize; 3],
-    ko: [Vec4; 3],
-    s: [Vec4; 3],
-}
-
-impl Shear4 {
-    #[inline]
-    fn new(o: Vec3A, d: Vec3A) -> Self {
-        // The permutation and shear of `intersect_triangle`.
-        let w = Watertight::new(o, d);
-        Self {
-            k: w.k,
-            ko: w.ko.map(Vec4::splat),
-            s: w.s.map(Vec4::splat),
-        }
-    }
-}
-
 impl Ray4 {
     #[inline]
     fn new(accel: &Accel, o: Vec3A, d: Vec3A, tmin: f32, tmax: f32) -> Self {
         let segment =
             near_axis_plane(d).then(|| accel.segment_box(o, d, tmin, tmax).map(|c| c.to_array()));
         Self {
-            o,
-            d,
             tmin,
             org: o.to_array(),
             inv: d.recip().to_array(),
@@ -323,43 +289,6 @@ impl Ray4 {
         }
         (mask, near)
     }
-
-    /// The watertight test on four triangles: the lanes hit in `(tmin, tmax)` (bit per lane)
-    /// with their distance, and the lanes to redo in the scalar test (an edge function is zero).
-    /// Each lane runs the operations of [`intersect_triangle`] in its order.
-    #[inline]
-    fn triangles(&self, sh: &Shear4, p: &TriPack, tmax: f32) -> (u32, u32, [Vec4; 4]) {
-        let [kx, ky, kz] = sh.k;
-        let vertex = |v: &[Vec4; 3]| {
-            let (x, y, z) = (v[kx] - sh.ko[0], v[ky] - sh.ko[1], v[kz] - sh.ko[2]);
-            (x + sh.s[0] * z, y + sh.s[1] * z, z * sh.s[2])
-        };
-        let (p0, p1, p2) = (vertex(&p.v[0]), vertex(&p.v[1]), vertex(&p.v[2]));
-        let e0 = p1.0 * p2.1 - p1.1 * p2.0;
-        let e1 = p2.0 * p0.1 - p2.1 * p0.0;
-        let e2 = p0.0 * p1.1 - p0.1 * p1.0;
-        let zero = Vec4::ZERO;
-        let exact_zero = (e0.cmpeq(zero) | e1.cmpeq(zero) | e2.cmpeq(zero)).bitmask() & p.valid;
-        let neg = e0.cmplt(zero) | e1.cmplt(zero) | e2.cmplt(zero);
-        let pos = e0.cmpgt(zero) | e1.cmpgt(zero) | e2.cmpgt(zero);
-        let det = e0 + e1 + e2;
-        let inv_det = Vec4::ONE / det;
-        let t = (e0 * p0.2 + e1 * p1.2 + e2 * p2.2) * inv_det;
-        let hit = !(neg & pos)
-            & det.cmpne(zero)
-            & t.cmpgt(Vec4::splat(self.tmin))
-            & t.cmplt(Vec4::splat(tmax));
-        let hit = hit.bitmask() & p.valid & !exact_zero;
-        (hit, exact_zero, [t, e1, e2, inv_det])
-    }
-
-    /// The scalar watertight test on lane `lane` of `p` (rare: an edge function was exactly zero).
-    #[cold]
-    #[inline(never)]
-    fn triangle_lane(&self, p: &TriPack, lane: usize, tmax: f32) -> Option<(f32, f32, f32)> {
-        let v = p.v.map(|v| Vec3A::new(v[0][lane], v[1][lane], v[2][lane]));
-        intersect_triangle(self.o, self.d, self.tmin, tmax, &v)
-    }
 }
 
 /// Builds the 16-wide tree from the binary one, without recursion (degenerate input, such as
@@ -370,7 +299,7 @@ struct Collapse<'a> {
     plane: &'a dyn Fn(usize) -> u32,
     nodes: Vec<Node>,
     leaves: Vec<Leaf>,
-    packs: Vec<TriPack>,
+    packs: Vec<Pack<LEAF_LANES>>,
     others: Vec<(Prim, u32)>,
 }
 
@@ -445,36 +374,30 @@ impl<'a> Collapse<'a> {
         kids
     }
 
-    /// The leaf of binary leaf `i`: its triangles in packs of four, its other primitives apart.
+    /// The leaf of binary leaf `i`: its triangles in packs of [`LEAF_LANES`], its other
+    /// primitives apart.
     fn leaf(&mut self, i: usize) -> u32 {
         let (first_pack, first_other) = (self.packs.len() as u32, self.others.len() as u32);
         let n = &self.tree.nodes[i];
         let range = n.first as usize..(n.first + n.count) as usize;
-        let mut lanes = 0;
         for &index in &self.tree.order[range] {
             let prim = self.prims[index as usize];
             let Prim::Triangle { v, .. } = prim else {
                 self.others.push((prim, index));
                 continue;
             };
-            if lanes % 4 == 0 {
-                self.packs.push(TriPack {
-                    v: [[Vec4::ZERO; 3]; 3],
-                    prim: [0; 4],
-                    plane: [NO_PLANE; 4],
-                    valid: 0,
-                });
+            // Into this leaf's last pack, or a new one when it is full (or the leaf has none).
+            let plane = (self.plane)(index as usize);
+            let put = self.packs.len() > first_pack as usize
+                && self
+                    .packs
+                    .last_mut()
+                    .is_some_and(|p| p.push(&v, index, plane));
+            if !put {
+                let mut pack = Pack::EMPTY;
+                pack.push(&v, index, plane);
+                self.packs.push(pack);
             }
-            let (pack, lane) = (self.packs.last_mut().unwrap(), lanes % 4);
-            for (k, vk) in v.iter().enumerate() {
-                for a in 0..3 {
-                    pack.v[k][a][lane] = vk[a];
-                }
-            }
-            pack.prim[lane] = index;
-            pack.plane[lane] = (self.plane)(index as usize);
-            pack.valid |= 1 << lane;
-            lanes += 1;
         }
         let leaf = Leaf {
             packs: (first_pack, self.packs.len() as u32),
@@ -589,25 +512,33 @@ impl Accel {
             Some(Isa::Avx512) => unsafe { self.intersect_tree_avx512(o, d, tmin, tmax) },
             #[cfg(target_arch = "x86_64")]
             Some(Isa::Avx2) => unsafe { self.intersect_tree_avx2(o, d, tmin, tmax) },
-            _ => self.closest_in_tree::<Q4>(o, d, tmin, tmax),
+            _ => self.closest_in_tree::<Q4, Q4>(o, d, tmin, tmax),
         }
     }
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx512f")]
     fn intersect_tree_avx512(&self, o: Vec3A, d: Vec3A, tmin: f32, tmax: f32) -> Option<Hit> {
-        self.closest_in_tree::<x86::Z16>(o, d, tmin, tmax)
+        self.closest_in_tree::<x86::Z16, x86::Y8>(o, d, tmin, tmax)
     }
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
     fn intersect_tree_avx2(&self, o: Vec3A, d: Vec3A, tmin: f32, tmax: f32) -> Option<Hit> {
-        self.closest_in_tree::<x86::Y8>(o, d, tmin, tmax)
+        self.closest_in_tree::<x86::Y8, x86::Y8>(o, d, tmin, tmax)
     }
 
-    /// The closest hit through the tree, nodes tested `V::WIDTH` lanes at a time.
+    /// The closest hit through the tree, nodes tested `V::WIDTH` lanes at a time and leaves'
+    /// packs `L::WIDTH` (the leaf visits are inlined closures: a closure is not compiled with its
+    /// caller's target features, and out of line its AVX2 tests would be calls).
     #[inline(always)]
-    fn closest_in_tree<V: Wide>(&self, o: Vec3A, d: Vec3A, tmin: f32, tmax: f32) -> Option<Hit> {
+    fn closest_in_tree<V: Wide, L: WideTest>(
+        &self,
+        o: Vec3A,
+        d: Vec3A,
+        tmin: f32,
+        tmax: f32,
+    ) -> Option<Hit> {
         if self.nodes.is_empty() {
             return None;
         }
@@ -615,48 +546,58 @@ impl Accel {
         let mut best: Option<Hit> = None;
         let mut tmax = tmax;
         let mut shear = None;
-        self.traverse::<V, true>(&ray, &mut tmax, |leaf, tmax| {
-            for p in &self.packs[leaf.packs.0 as usize..leaf.packs.1 as usize] {
-                let sh = shear.get_or_insert_with(|| Shear4::new(o, d));
-                let (hit, redo, lanes4) = ray.triangles(sh, p, *tmax);
-                let [t, e1, e2, inv_det] = lanes4.map(|v| v.to_array());
-                // The lanes hit or to redo, in order, a candidate accepted only if it shortens
-                // the ray.
-                let mut lanes = hit | redo;
-                while lanes != 0 {
-                    let lane = lanes.trailing_zeros() as usize;
-                    lanes &= lanes - 1;
-                    let prim = p.prim[lane];
-                    let found = if hit >> lane & 1 != 0 {
-                        let inv = inv_det[lane];
-                        Hit {
-                            t: t[lane],
-                            prim,
-                            b: [e1[lane] * inv, e2[lane] * inv],
+        self.traverse::<V, true>(
+            &ray,
+            &mut tmax,
+            #[inline(always)]
+            |leaf, tmax| {
+                for p in &self.packs[leaf.packs.0 as usize..leaf.packs.1 as usize] {
+                    let sh = shear.get_or_insert_with(|| Watertight::new(o, d));
+                    for at in p.steps::<L>() {
+                        let l = p.test::<L>(at, sh, tmin, *tmax);
+                        let hit = l.hit.bits();
+                        let mut lanes = hit | l.redo.bits();
+                        if lanes == 0 {
+                            continue;
                         }
-                    } else if let Some((t, b1, b2)) = ray.triangle_lane(p, lane, *tmax) {
-                        Hit {
-                            t,
-                            prim,
-                            b: [b1, b2],
+                        let (t, b1, b2) = (l.t.store(), l.b1.store(), l.b2.store());
+                        // The lanes hit or to redo, in order, a candidate accepted only if it
+                        // shortens the ray.
+                        while lanes != 0 {
+                            let i = lanes.trailing_zeros() as usize;
+                            lanes &= lanes - 1;
+                            let prim = p.prim[at + i];
+                            let found = if hit >> i & 1 != 0 {
+                                Hit {
+                                    t: t[i],
+                                    prim,
+                                    b: [b1[i], b2[i]],
+                                }
+                            } else if let Some((t, b1, b2)) = p.lane(at + i, o, d, tmin, *tmax) {
+                                Hit {
+                                    t,
+                                    prim,
+                                    b: [b1, b2],
+                                }
+                            } else {
+                                continue;
+                            };
+                            if found.t < *tmax {
+                                *tmax = found.t;
+                                best = Some(found);
+                            }
                         }
-                    } else {
-                        continue;
-                    };
-                    if found.t < *tmax {
-                        *tmax = found.t;
-                        best = Some(found);
                     }
                 }
-            }
-            for (prim, index) in &self.others[leaf.others.0 as usize..leaf.others.1 as usize] {
-                if let Some((t, b)) = prim.intersect(o, d, tmin, *tmax) {
-                    *tmax = t;
-                    best = Some(Hit { t, prim: *index, b });
+                for (prim, index) in &self.others[leaf.others.0 as usize..leaf.others.1 as usize] {
+                    if let Some((t, b)) = prim.intersect(o, d, tmin, *tmax) {
+                        *tmax = t;
+                        best = Some(Hit { t, prim: *index, b });
+                    }
                 }
-            }
-            false
-        });
+                false
+            },
+        );
         best
     }
 
@@ -708,7 +649,7 @@ impl Accel {
             Some(Isa::Avx512) => unsafe { self.unoccluded_tree_avx512(o, d, tmin, tmax, skip) },
             #[cfg(target_arch = "x86_64")]
             Some(Isa::Avx2) => unsafe { self.unoccluded_tree_avx2(o, d, tmin, tmax, skip) },
-            _ => self.unoccluded_in_tree::<Q4>(o, d, tmin, tmax, skip),
+            _ => self.unoccluded_in_tree::<Q4, Q4>(o, d, tmin, tmax, skip),
         }
     }
 
@@ -722,7 +663,7 @@ impl Accel {
         tmax: f32,
         skip: [u32; 2],
     ) -> bool {
-        self.unoccluded_in_tree::<x86::Z16>(o, d, tmin, tmax, skip)
+        self.unoccluded_in_tree::<x86::Z16, x86::Y8>(o, d, tmin, tmax, skip)
     }
 
     #[cfg(target_arch = "x86_64")]
@@ -735,12 +676,13 @@ impl Accel {
         tmax: f32,
         skip: [u32; 2],
     ) -> bool {
-        self.unoccluded_in_tree::<x86::Y8>(o, d, tmin, tmax, skip)
+        self.unoccluded_in_tree::<x86::Y8, x86::Y8>(o, d, tmin, tmax, skip)
     }
 
-    /// Whether the segment is unoccluded through the tree, nodes tested `V::WIDTH` lanes at a time.
+    /// Whether the segment is unoccluded through the tree, nodes tested `V::WIDTH` lanes at a time
+    /// and leaves' packs `L::WIDTH` (as [`Self::closest_in_tree`]).
     #[inline(always)]
-    fn unoccluded_in_tree<V: Wide>(
+    fn unoccluded_in_tree<V: Wide, L: WideTest>(
         &self,
         o: Vec3A,
         d: Vec3A,
@@ -752,33 +694,38 @@ impl Accel {
         let mut tmax = tmax;
         let mut miss = true;
         let mut shear = None;
-        self.traverse::<V, false>(&ray, &mut tmax, |leaf, tmax| {
-            for p in &self.packs[leaf.packs.0 as usize..leaf.packs.1 as usize] {
-                let sh = shear.get_or_insert_with(|| Shear4::new(o, d));
-                let (hit, redo, _) = ray.triangles(sh, p, *tmax);
-                if hit | redo == 0 {
-                    continue;
+        self.traverse::<V, false>(
+            &ray,
+            &mut tmax,
+            #[inline(always)]
+            |leaf, tmax| {
+                for p in &self.packs[leaf.packs.0 as usize..leaf.packs.1 as usize] {
+                    let sh = shear.get_or_insert_with(|| Watertight::new(o, d));
+                    for at in p.steps::<L>() {
+                        let l = p.test::<L>(at, sh, tmin, *tmax);
+                        let (hit, redo) = (l.hit.bits(), l.redo.bits());
+                        if hit | redo == 0 {
+                            continue;
+                        }
+                        // Triangles on the planes `skip` do not count.
+                        let kept = !(p.on_planes((hit | redo) << at, skip) >> at);
+                        let redo = redo & kept;
+                        if hit & kept != 0
+                            || (0..L::WIDTH).any(|i| {
+                                redo >> i & 1 != 0 && p.lane(at + i, o, d, tmin, *tmax).is_some()
+                            })
+                        {
+                            miss = false;
+                            return true;
+                        }
+                    }
                 }
-                let skipped = (0..4).fold(0, |m, lane| {
-                    let key = p.plane[lane];
-                    let on = key != NO_PLANE && (key == skip[0] || key == skip[1]);
-                    m | (on as u32) << lane
-                });
-                let redo = redo & !skipped;
-                if hit & !skipped != 0
-                    || (0..4).any(|lane| {
-                        redo >> lane & 1 != 0 && ray.triangle_lane(p, lane, *tmax).is_some()
-                    })
-                {
-                    miss = false;
-                    return true;
-                }
-            }
-            miss = !self.others[leaf.others.0 as usize..leaf.others.1 as usize]
-                .iter()
-                .any(|(prim, _)| prim.intersect(o, d, tmin, *tmax).is_some());
-            !miss
-        });
+                miss = !self.others[leaf.others.0 as usize..leaf.others.1 as usize]
+                    .iter()
+                    .any(|(prim, _)| prim.intersect(o, d, tmin, *tmax).is_some());
+                !miss
+            },
+        );
         miss
     }
 
@@ -865,7 +812,7 @@ impl Accel {
         }
     }
 
-    /// Start loading the node or the one pack of child code `code` (seven or three cache lines,
+    /// Start loading the node or the one pack of child code `code` (seven or six cache lines,
     /// nodes and packs being aligned to lines) as soon as a ray is known to enter it: a traversal
     /// waits mostly on these loads (a 13k-triangle mesh's tree sits in L2, not L1), and a child
     /// pushed for later, or the nearest one taken next, is then on its way while the ray's other
@@ -893,7 +840,7 @@ impl Accel {
             // A node's boxes and child codes (not the padding after them), or a whole pack.
             let bytes = match code & LEAF {
                 0 => size_of::<[[[f32; WIDTH]; 3]; 2]>() + size_of::<[u32; WIDTH]>(),
-                _ => size_of::<TriPack>(),
+                _ => size_of::<Pack<LEAF_LANES>>(),
             };
             for line in (0..bytes).step_by(64) {
                 unsafe { _mm_prefetch::<_MM_HINT_T0>(p.wrapping_add(line)) };

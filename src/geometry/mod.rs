@@ -6,6 +6,7 @@ pub mod mesh;
 // (Off x86-64 the scan is never built.)
 #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
 pub mod small_scene;
+mod triangle_pack;
 mod wide;
 
 use crate::math::{RAY_EPS, SHADOW_EPS};

@@ -7,7 +7,7 @@
 //! enters are scanned — closest hits and shadow rays alike, in open scenes and closed ones.
 //! Micro-benchmark figures are in docs/architecture.md ("The BVH").
 //!
-//! Hits are those of the scalar watertight test ([`intersect_triangle`]) bit for bit: each lane
+//! Hits are those of the scalar watertight test ([`super::intersect_triangle`]) bit for bit: each lane
 //! runs its operations in its order (no fused multiply-add), and a lane with an edge function of
 //! exactly zero is redone by the scalar test and its double-precision fallback. The closest hit
 //! takes the lowest primitive index among equal distances, as the brute-force oracle
@@ -17,10 +17,11 @@
 //! another architecture) uses the BVH.
 
 use super::bvh::slab;
+use super::triangle_pack::Pack;
 #[cfg(target_arch = "x86_64")]
 use super::wide::x86;
-use super::wide::{Isa, Mask, Wide, WideTest, supported};
-use super::{Hit, Prim, Watertight, intersect_triangle};
+use super::wide::{Isa, Mask, Wide, WideClosest, WideTest, supported};
+use super::{Hit, Prim, Watertight};
 use glam::Vec3A;
 
 /// Triangles per step.
@@ -30,26 +31,12 @@ pub const MAX_TRIANGLES: usize = 64;
 /// Most packs of a small scene: their boxes are tested as the lanes of one step's vectors.
 const MAX_PACKS: usize = LANES;
 
-/// Sixteen triangles, one per lane.
-#[derive(Clone, Copy)]
-#[repr(C, align(64))]
-struct Pack {
-    /// `v[vertex][axis][lane]`.
-    v: [[[f32; LANES]; 3]; 3],
-    /// Each lane's primitive index in scene order.
-    prim: [u32; LANES],
-    /// Each lane's plane key ([`super::bvh::Accel::plane_of`]).
-    plane: [u32; LANES],
-    /// Lanes holding a triangle (bit per lane).
-    valid: u32,
-}
-
 /// Every triangle of a small scene, in at most [`MAX_PACKS`] packs of up to sixteen, in scene
 /// order: consecutive runs cut so that the scene's rays enter few of their boxes ([`runs`]), and
 /// a ray scans only the packs whose boxes it enters.
 #[derive(Clone)]
 pub struct SmallScene {
-    packs: Vec<Pack>,
+    packs: Vec<Pack<LANES>>,
     /// Each pack's bounding box by lane, `boxes[corner][axis][pack]` (low and high corners), for
     /// the slab test; lanes without a pack hold an empty box (low +∞, high −∞) and are masked
     /// off by `all`.
@@ -86,97 +73,6 @@ pub struct Query {
     pub packs: Packs,
 }
 
-/// One step's lanes: hit in `(tmin, tmax)` and to redo in the scalar test, and each lane's
-/// distance and barycentrics (meaningful in the hit lanes).
-#[derive(Clone, Copy)]
-struct Lanes<V: WideTest> {
-    hit: V::Mask,
-    redo: V::Mask,
-    t: V,
-    b1: V,
-    b2: V,
-}
-
-impl Pack {
-    /// The watertight test on lanes `at..at + V::WIDTH` in a vector `V`, each lane with the
-    /// operations of [`intersect_triangle`] in its order.
-    #[inline(always)]
-    fn test<V: WideTest>(&self, at: usize, sh: &Watertight, tmin: f32, tmax: f32) -> Lanes<V> {
-        let ko = [V::splat(sh.ko[0]), V::splat(sh.ko[1]), V::splat(sh.ko[2])];
-        let s = [V::splat(sh.s[0]), V::splat(sh.s[1]), V::splat(sh.s[2])];
-        let p0 = vertex(&self.v[0], at, sh.k, ko, s);
-        let p1 = vertex(&self.v[1], at, sh.k, ko, s);
-        let p2 = vertex(&self.v[2], at, sh.k, ko, s);
-        let e0 = p1[0].mul(p2[1]).sub(p1[1].mul(p2[0]));
-        let e1 = p2[0].mul(p0[1]).sub(p2[1].mul(p0[0]));
-        let e2 = p0[0].mul(p1[1]).sub(p0[1].mul(p1[0]));
-        let zero = V::splat(0.0);
-        let valid = V::Mask::from_bits(self.valid >> at);
-        let redo = (e0.eq(zero) | e1.eq(zero) | e2.eq(zero)) & valid;
-        // Where no edge function is zero (the lanes not redone), some are negative and some
-        // positive exactly where their sign bits differ; and where they all share a sign their
-        // sum is not zero, so the scalar test's `det == 0` rejects nothing more here.
-        let mixed = V::signs_differ(e0, e1, e2);
-        let det = e0.add(e1).add(e2);
-        let inv_det = V::splat(1.0).div(det);
-        let t = e0
-            .mul(p0[2])
-            .add(e1.mul(p1[2]))
-            .add(e2.mul(p2[2]))
-            .mul(inv_det);
-        let hit = !mixed & V::splat(tmin).lt(t) & t.lt(V::splat(tmax)) & valid & !redo;
-        Lanes {
-            hit,
-            redo,
-            t,
-            b1: e1.mul(inv_det),
-            b2: e2.mul(inv_det),
-        }
-    }
-
-    /// The steps of `V::WIDTH` lanes this pack takes (lanes are filled from the first): where
-    /// each starts.
-    #[inline(always)]
-    fn steps<V: Wide>(&self) -> impl Iterator<Item = usize> {
-        (0..LANES)
-            .step_by(V::WIDTH)
-            .take_while(|&at| self.valid >> at != 0)
-    }
-
-    /// Those of the lanes `lanes` (bit per lane) of this pack that lie on one of the planes `skip`
-    /// (only the lanes asked for are read: a step's few hit lanes).
-    #[inline(always)]
-    fn on_planes(&self, lanes: u32, skip: [u32; 2]) -> u32 {
-        let (mut on, mut left) = (0, lanes);
-        while left != 0 {
-            let lane = left.trailing_zeros() as usize;
-            left &= left - 1;
-            let key = self.plane[lane];
-            if key != super::bvh::NO_PLANE && (key == skip[0] || key == skip[1]) {
-                on |= 1 << lane;
-            }
-        }
-        on
-    }
-
-    /// The scalar watertight test on lane `lane` (rare: an edge function was exactly zero).
-    #[cold]
-    #[inline(never)]
-    fn lane(
-        &self,
-        lane: usize,
-        o: Vec3A,
-        d: Vec3A,
-        tmin: f32,
-        tmax: f32,
-    ) -> Option<(f32, f32, f32)> {
-        let v = self
-            .v
-            .map(|v| Vec3A::new(v[0][lane], v[1][lane], v[2][lane]));
-        intersect_triangle(o, d, tmin, tmax, &v)
-    }
-}
-
 impl SmallScene {
     /// The scan over `prims` (plane keys by `plane`, for shadow rays) if they are at most
     /// [`MAX_TRIANGLES`] triangles and the CPU has AVX-512 or AVX2 (the widest is used).
@@ -195,21 +91,9 @@ impl SmallScene {
         let mut packs = Vec::new();
         let mut boxes = [[[f32::INFINITY; LANES]; 3], [[f32::NEG_INFINITY; LANES]; 3]];
         for run in runs(&tris) {
-            let mut pack = Pack {
-                v: [[[0.0; LANES]; 3]; 3],
-                prim: [0; LANES],
-                plane: [0; LANES],
-                valid: 0,
-            };
-            for (lane, i) in run.clone().enumerate() {
-                for (k, vk) in tris[i].iter().enumerate() {
-                    for a in 0..3 {
-                        pack.v[k][a][lane] = vk[a];
-                    }
-                }
-                pack.prim[lane] = i as u32;
-                pack.plane[lane] = plane(i);
-                pack.valid |= 1 << lane;
+            let mut pack = Pack::EMPTY;
+            for i in run.clone() {
+                pack.push(&tris[i], i as u32, plane(i));
             }
             let bb = bounding_box(&tris[run]);
             for a in 0..3 {
@@ -362,7 +246,7 @@ impl SmallScene {
     /// the hit a scan in scene order that accepts a triangle only if it shortens the ray keeps.
     /// With a lane to redo in the scalar test (an edge function exactly zero), that scan itself.
     #[inline(always)]
-    fn closest<V: WideTest>(&self, q: Query) -> Option<Hit> {
+    fn closest<V: WideClosest>(&self, q: Query) -> Option<Hit> {
         let Query {
             o, d, tmin, tmax, ..
         } = q;
@@ -652,21 +536,4 @@ fn bounding_box(tris: &[[Vec3A; 3]]) -> [Vec3A; 2] {
         [Vec3A::splat(f32::INFINITY), Vec3A::splat(f32::NEG_INFINITY)],
         |[lo, hi], &v| [lo.min(v), hi.max(v)],
     )
-}
-
-/// One vertex `v` of lanes `at..at + V::WIDTH` relative to the ray's origin, permuted by `k` and sheared.
-#[inline(always)]
-fn vertex<V: WideTest>(
-    v: &[[f32; LANES]; 3],
-    at: usize,
-    k: [usize; 3],
-    ko: [V; 3],
-    s: [V; 3],
-) -> [V; 3] {
-    let z = V::load(&v[k[2]], at).sub(ko[2]);
-    [
-        V::load(&v[k[0]], at).sub(ko[0]).add(s[0].mul(z)),
-        V::load(&v[k[1]], at).sub(ko[1]).add(s[1].mul(z)),
-        z.mul(s[2]),
-    ]
 }

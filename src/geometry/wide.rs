@@ -8,7 +8,7 @@
 //! run time ([`supported`]); and four lanes of glam's `Vec4` ([`Q4`]: SSE2 on x86-64, NEON on
 //! aarch64), which every CPU runs.
 
-use glam::{BVec4A, Vec4};
+use glam::Vec4;
 use std::ops::{BitAnd, BitOr, Not};
 
 /// A SIMD extension the scan and the tree's node test are compiled for (none elsewhere than on
@@ -81,16 +81,10 @@ pub(super) trait Wide: Copy {
     fn le(self, b: Self) -> Self::Mask;
 }
 
-/// What the watertight triangle test needs beyond [`Wide`] (the scan's packs).
+/// What the watertight triangle test needs beyond [`Wide`] ([`super::triangle_pack`]).
 pub(super) trait WideTest: Wide {
-    /// The bits of lanes `at..at + WIDTH` of `a`.
-    fn load_bits(a: &[u32], at: usize) -> Self;
     fn add(self, b: Self) -> Self;
     fn div(self, b: Self) -> Self;
-    /// `a` in the lanes of `mask`, `b` in the others.
-    fn select(mask: Self::Mask, a: Self, b: Self) -> Self;
-    /// The least lane (no lane is NaN).
-    fn reduce_min(self) -> f32;
     fn lt(self, b: Self) -> Self::Mask;
     fn eq(self, b: Self) -> Self::Mask;
     /// The lanes where the sign bits of `a`, `b` and `c` are not all equal.
@@ -106,6 +100,16 @@ pub(super) trait WideTest: Wide {
     fn lane(self, lane: usize) -> f32 {
         self.store()[lane]
     }
+}
+
+/// What the small-scene scan's branch-free closest hit needs beyond [`WideTest`].
+pub(super) trait WideClosest: WideTest {
+    /// The bits of lanes `at..at + WIDTH` of `a`.
+    fn load_bits(a: &[u32], at: usize) -> Self;
+    /// `a` in the lanes of `mask`, `b` in the others.
+    fn select(mask: Self::Mask, a: Self, b: Self) -> Self;
+    /// The least lane (no lane is NaN).
+    fn reduce_min(self) -> f32;
 }
 
 /// Four lanes of glam's `Vec4`, masks as bits: the baseline every CPU runs.
@@ -145,8 +149,35 @@ impl Wide for Q4 {
     }
     #[inline(always)]
     fn le(self, b: Self) -> u32 {
-        let m: BVec4A = self.0.cmple(b.0);
-        m.bitmask()
+        self.0.cmple(b.0).bitmask()
+    }
+}
+
+impl WideTest for Q4 {
+    #[inline(always)]
+    fn add(self, b: Self) -> Self {
+        Self(self.0 + b.0)
+    }
+    #[inline(always)]
+    fn div(self, b: Self) -> Self {
+        Self(self.0 / b.0)
+    }
+    #[inline(always)]
+    fn lt(self, b: Self) -> u32 {
+        self.0.cmplt(b.0).bitmask()
+    }
+    #[inline(always)]
+    fn eq(self, b: Self) -> u32 {
+        self.0.cmpeq(b.0).bitmask()
+    }
+    #[inline(always)]
+    fn signs_differ(a: Self, b: Self, c: Self) -> u32 {
+        let (a, b, c) = (
+            a.0.is_negative_bitmask(),
+            b.0.is_negative_bitmask(),
+            c.0.is_negative_bitmask(),
+        );
+        (a ^ b) | (a ^ c)
     }
 }
 
@@ -154,7 +185,7 @@ impl Wide for Q4 {
 /// (sixteen lanes in two steps).
 #[cfg(target_arch = "x86_64")]
 pub(super) mod x86 {
-    use super::{Mask, Wide, WideTest};
+    use super::{Mask, Wide, WideClosest, WideTest};
     use std::arch::x86_64::*;
     use std::ops::{BitAnd, BitOr, Not};
 
@@ -251,24 +282,12 @@ pub(super) mod x86 {
 
     impl WideTest for Z16 {
         #[inline(always)]
-        fn load_bits(a: &[u32], at: usize) -> Self {
-            Self(unsafe { _mm512_castsi512_ps(_mm512_loadu_si512(a[at..at + 16].as_ptr().cast())) })
-        }
-        #[inline(always)]
         fn add(self, b: Self) -> Self {
             Self(unsafe { _mm512_add_ps(self.0, b.0) })
         }
         #[inline(always)]
         fn div(self, b: Self) -> Self {
             Self(unsafe { _mm512_div_ps(self.0, b.0) })
-        }
-        #[inline(always)]
-        fn select(mask: u32, a: Self, b: Self) -> Self {
-            Self(unsafe { _mm512_mask_blend_ps(mask as u16, b.0, a.0) })
-        }
-        #[inline(always)]
-        fn reduce_min(self) -> f32 {
-            unsafe { _mm512_reduce_min_ps(self.0) }
         }
         #[inline(always)]
         fn lt(self, b: Self) -> u32 {
@@ -289,6 +308,21 @@ pub(super) mod x86 {
                 let x = _mm512_or_si512(_mm512_xor_si512(a, b), _mm512_xor_si512(a, c));
                 _mm512_cmplt_epi32_mask(x, _mm512_setzero_si512()) as u32
             }
+        }
+    }
+
+    impl WideClosest for Z16 {
+        #[inline(always)]
+        fn load_bits(a: &[u32], at: usize) -> Self {
+            Self(unsafe { _mm512_castsi512_ps(_mm512_loadu_si512(a[at..at + 16].as_ptr().cast())) })
+        }
+        #[inline(always)]
+        fn select(mask: u32, a: Self, b: Self) -> Self {
+            Self(unsafe { _mm512_mask_blend_ps(mask as u16, b.0, a.0) })
+        }
+        #[inline(always)]
+        fn reduce_min(self) -> f32 {
+            unsafe { _mm512_reduce_min_ps(self.0) }
         }
     }
 
@@ -331,31 +365,12 @@ pub(super) mod x86 {
 
     impl WideTest for Y8 {
         #[inline(always)]
-        fn load_bits(a: &[u32], at: usize) -> Self {
-            Self(unsafe { _mm256_castsi256_ps(_mm256_loadu_si256(a[at..at + 8].as_ptr().cast())) })
-        }
-        #[inline(always)]
         fn add(self, b: Self) -> Self {
             Self(unsafe { _mm256_add_ps(self.0, b.0) })
         }
         #[inline(always)]
         fn div(self, b: Self) -> Self {
             Self(unsafe { _mm256_div_ps(self.0, b.0) })
-        }
-        #[inline(always)]
-        fn select(mask: M8, a: Self, b: Self) -> Self {
-            Self(unsafe { _mm256_blendv_ps(b.0, a.0, mask.0) })
-        }
-        #[inline(always)]
-        fn reduce_min(self) -> f32 {
-            unsafe {
-                let m = _mm_min_ps(
-                    _mm256_castps256_ps128(self.0),
-                    _mm256_extractf128_ps::<1>(self.0),
-                );
-                let m = _mm_min_ps(m, _mm_movehl_ps(m, m));
-                _mm_cvtss_f32(_mm_min_ss(m, _mm_shuffle_ps::<1>(m, m)))
-            }
         }
         #[inline(always)]
         fn lt(self, b: Self) -> M8 {
@@ -374,6 +389,28 @@ pub(super) mod x86 {
                     _mm256_xor_ps(a.0, b.0),
                     _mm256_xor_ps(a.0, c.0),
                 ))
+            }
+        }
+    }
+
+    impl WideClosest for Y8 {
+        #[inline(always)]
+        fn load_bits(a: &[u32], at: usize) -> Self {
+            Self(unsafe { _mm256_castsi256_ps(_mm256_loadu_si256(a[at..at + 8].as_ptr().cast())) })
+        }
+        #[inline(always)]
+        fn select(mask: M8, a: Self, b: Self) -> Self {
+            Self(unsafe { _mm256_blendv_ps(b.0, a.0, mask.0) })
+        }
+        #[inline(always)]
+        fn reduce_min(self) -> f32 {
+            unsafe {
+                let m = _mm_min_ps(
+                    _mm256_castps256_ps128(self.0),
+                    _mm256_extractf128_ps::<1>(self.0),
+                );
+                let m = _mm_min_ps(m, _mm_movehl_ps(m, m));
+                _mm_cvtss_f32(_mm_min_ss(m, _mm_shuffle_ps::<1>(m, m)))
             }
         }
     }
