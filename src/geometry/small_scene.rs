@@ -7,11 +7,11 @@
 //! enters are scanned — closest hits and shadow rays alike, in open scenes and closed ones.
 //! Micro-benchmark figures are in docs/architecture.md ("The BVH").
 //!
-//! Hits are those of the scalar watertight test ([`super::intersect_triangle`]) bit for bit: each lane
-//! runs its operations in its order (no fused multiply-add), and a lane with an edge function of
-//! exactly zero is redone by the scalar test and its double-precision fallback. The closest hit
-//! takes the lowest primitive index among equal distances, as the brute-force oracle
-//! [`super::bvh::intersect_brute`] does.
+//! Hits are those of the scalar watertight test ([`super::intersect_triangle`]) bit for bit: each
+//! lane runs its operations in its order (no fused multiply-add), and a lane with an edge function
+//! of exactly zero is redone by the scalar test and its double-precision fallback
+//! ([`super::triangle_pack`]). The closest hit takes the lowest primitive index among equal
+//! distances, as the brute-force oracle [`super::bvh::intersect_brute`] does.
 //!
 //! The scan is compiled for AVX-512 and for AVX2 and picked at run time; a CPU with neither (or
 //! another architecture) uses the BVH.
