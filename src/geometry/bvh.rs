@@ -242,7 +242,7 @@ fn planar_shapes(prims: &[Prim], prim_shape: &[u32], shapes: usize) -> Vec<bool>
 }
 
 /// A ray prepared for the tree's tests.
-struct Ray4 {
+struct TreeRay {
     tmin: f32,
     /// Slab test: origin and inverse direction per axis.
     org: [f32; 3],
@@ -252,7 +252,7 @@ struct Ray4 {
     segment: Option<[[f32; 3]; 2]>,
 }
 
-impl Ray4 {
+impl TreeRay {
     #[inline]
     fn new(accel: &Accel, o: Vec3A, d: Vec3A, tmin: f32, tmax: f32) -> Self {
         let segment =
@@ -542,7 +542,7 @@ impl Accel {
         if self.nodes.is_empty() {
             return None;
         }
-        let ray = Ray4::new(self, o, d, tmin, tmax);
+        let ray = TreeRay::new(self, o, d, tmin, tmax);
         let mut best: Option<Hit> = None;
         let mut tmax = tmax;
         let mut shear = None;
@@ -690,7 +690,7 @@ impl Accel {
         tmax: f32,
         skip: [u32; 2],
     ) -> bool {
-        let ray = Ray4::new(self, o, d, tmin, tmax);
+        let ray = TreeRay::new(self, o, d, tmin, tmax);
         let mut tmax = tmax;
         let mut miss = true;
         let mut shear = None;
@@ -736,7 +736,7 @@ impl Accel {
     #[inline(always)]
     fn traverse<V: Wide, const NEAREST_FIRST: bool>(
         &self,
-        ray: &Ray4,
+        ray: &TreeRay,
         tmax: &mut f32,
         visit: impl FnMut(&Leaf, &mut f32) -> bool,
     ) {
@@ -753,7 +753,7 @@ impl Accel {
     fn walk<V: Wide, const NEAREST_FIRST: bool>(
         &self,
         stack: &mut Vec<(u32, f32)>,
-        ray: &Ray4,
+        ray: &TreeRay,
         tmax: &mut f32,
         mut visit: impl FnMut(&Leaf, &mut f32) -> bool,
     ) {
