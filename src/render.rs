@@ -946,33 +946,59 @@ impl<'a, T: Tracer> Sampling<'a, T> {
     }
 
     /// Start the lane's next sample (a block's first: its stream, after a check for
-    /// cancellation) with the fixed contributions; false if its task has no samples left.
+    /// cancellation) with the fixed contributions, finishing at once each one the tracer turns
+    /// down ([`Tracer::turned_down`]); false once its task is done.
     fn start_sample(&self, lane: &mut Lane<'_, T::Path>) -> Result<bool> {
-        let (k, task) = (lane.next, &mut lane.task);
-        if k == task.end {
-            return Ok(false);
-        }
-        if (k - task.first).is_multiple_of(BLOCK) {
-            if self.monitor.cancel.load(Ordering::Relaxed) {
-                return Err(NlosError::Interrupted);
+        loop {
+            let (k, task) = (lane.next, &mut lane.task);
+            if k == task.end {
+                return Ok(false);
             }
-            if k > task.first {
-                lane.rng = self.stream(task.pixel as u64, k / BLOCK);
+            if (k - task.first).is_multiple_of(BLOCK) {
+                if self.monitor.cancel.load(Ordering::Relaxed) {
+                    return Err(NlosError::Interrupted);
+                }
+                if k > task.first {
+                    lane.rng = self.stream(task.pixel as u64, k / BLOCK);
+                }
+            }
+            lane.rng.start(k);
+            // A sample whose first random numbers end it is finished here, and the next begun
+            // at once (in scenes whose hidden part fills little of a scan point's hemisphere,
+            // most samples). Where such samples add nothing at all (no fixed contributions, no
+            // values kept) a run of them is passed over up to the block's last sample, which
+            // ends as usual (a block's progress is counted there); an independent sampler's
+            // samples need no `start`.
+            let mut goes_on = false;
+            if lane.fixed.is_empty() && lane.values.is_none() && lane.rng.is_independent() {
+                let block_end = task.first + ((k - task.first) / BLOCK + 1) * BLOCK;
+                let run = block_end.min(task.end) - 1 - k;
+                let passed = self.tracer.turned_down(task.pixel, &mut lane.rng, run);
+                lane.next += passed;
+                // A run that stopped short stopped at a sample that goes on.
+                goes_on = passed < run;
+            }
+            lane.total = 0.0;
+            for s in &lane.fixed {
+                lane.total += self.deposit(s, task.buf, task.sum, lane.values.as_mut(), 0);
+            }
+            if goes_on || self.tracer.turned_down(task.pixel, &mut lane.rng, 1) == 0 {
+                lane.path = Some(self.tracer.begin(task.pixel, &mut lane.rng));
+                return Ok(true);
+            }
+            if self.finish_sample(lane)? {
+                return Ok(false);
             }
         }
-        lane.rng.start(k);
-        lane.total = 0.0;
-        for s in &lane.fixed {
-            lane.total += self.deposit(s, task.buf, task.sum, lane.values.as_mut(), 0);
-        }
-        lane.path = Some(self.tracer.begin(task.pixel, &mut lane.rng));
-        Ok(true)
     }
 
     /// The lane's sample has ended: its squared values and total are kept, and at the end of a
     /// block progress is counted; true once the task is done (all its samples, or with
     /// adaptive sampling those of the first block at which its total is known well enough,
     /// [`Plan::precise_enough`]).
+    // Inlined into both callers: out of line, the line-of-sight Cornell box ran 0.89× as fast
+    // (its path loop lost the inlining it had).
+    #[inline(always)]
     fn finish_sample(&self, lane: &mut Lane<'_, T::Path>) -> Result<bool> {
         let task = &mut lane.task;
         lane.path = None;

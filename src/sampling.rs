@@ -109,6 +109,49 @@ impl Sampler {
         });
         s
     }
+    /// Whether this is an independent sampler (not a low-discrepancy sequence): its samples
+    /// follow one another in one stream, and [`Self::start`] does nothing.
+    #[inline]
+    pub fn is_independent(&self) -> bool {
+        self.ld.is_none()
+    }
+    /// How many samples in a row, at most `max`, `down` turns down by their first random
+    /// numbers (`skip` 2D points, then the one `down` judges); their numbers are taken, and none
+    /// of the next sample's. Samples follow one another in the stream of an independent sampler
+    /// only (a low-discrepancy one starts each by its index): for one, `max` is at most 1.
+    #[inline(always)]
+    pub fn turned_down(&mut self, max: u64, skip: usize, down: impl Fn(Vec2) -> bool) -> u64 {
+        debug_assert!(max <= 1 || self.is_independent());
+        let mut n = 0;
+        if self.ld.is_none() {
+            // On a copy of the stream alone (held in registers), put back once.
+            let mut rng = self.rng.clone();
+            while n < max {
+                let mut ahead = rng.clone();
+                for _ in 0..2 * skip {
+                    ahead.next_u32();
+                }
+                // `next_2d`'s order: x, then y.
+                let x = unit(ahead.next_u32());
+                if !down(Vec2::new(x, unit(ahead.next_u32()))) {
+                    break;
+                }
+                rng = ahead;
+                n += 1;
+            }
+            self.rng = rng;
+        } else if max > 0 {
+            let mut ahead = self.clone();
+            for _ in 0..skip {
+                ahead.next_2d();
+            }
+            if down(ahead.next_2d()) {
+                *self = ahead;
+                n = 1;
+            }
+        }
+        n
+    }
     /// Begin sample `index` of the sequence (a pixel's sample number); an independent sampler
     /// just goes on.
     #[inline]

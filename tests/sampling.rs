@@ -118,6 +118,59 @@ fn streams_are_reproducible_and_distinct() {
     assert_ne!(draw(5, 6), draw(5, 7));
 }
 
+/// A run of samples turned down by their first numbers takes exactly the numbers those samples
+/// draw one at a time, and none of the first sample that goes on: with and without points read
+/// before the judged one, and for a low-discrepancy sampler (one sample at most).
+#[test]
+fn turned_down_runs_take_the_numbers_of_their_samples() {
+    // Asymmetric in x and y, so that the order of a point's two numbers counts.
+    let down = |u: Vec2| u.x + 0.5 * u.y < 1.0;
+    for skip in [0, 1] {
+        let (mut run, mut one) = (
+            Sampler::new(5, 6, skip as u64),
+            Sampler::new(5, 6, skip as u64),
+        );
+        let mut runs = 0;
+        for _ in 0..2000 {
+            let n = run.turned_down(7, skip, down);
+            // The same samples judged one at a time from a copy of the stream.
+            let mut m = 0;
+            while m < 7 {
+                let mut ahead = one.clone();
+                (0..skip).for_each(|_| _ = ahead.next_2d());
+                if !down(ahead.next_2d()) {
+                    break;
+                }
+                (one, m) = (ahead, m + 1);
+            }
+            assert_eq!(n, m);
+            runs += usize::from(n > 1);
+            // Both streams go on from the same place.
+            assert_eq!(run.next_u32(), one.next_u32());
+        }
+        assert!(runs > 100, "too few runs to test: {runs}");
+    }
+    let (mut ld, mut reference) = (
+        Sampler::low_discrepancy(3, 4, 0),
+        Sampler::low_discrepancy(3, 4, 0),
+    );
+    let mut taken = 0;
+    for i in 0..500 {
+        ld.start(i);
+        reference.start(i);
+        let n = ld.turned_down(1, 1, down);
+        let mut ahead = reference.clone();
+        ahead.next_2d();
+        let took = down(ahead.next_2d());
+        if took {
+            reference = ahead;
+        }
+        assert_eq!((n == 1, ld.next_2d()), (took, reference.next_2d()));
+        taken += n;
+    }
+    assert!((100..400).contains(&taken), "{taken} of 500 turned down");
+}
+
 #[test]
 fn low_discrepancy_pairs_are_stratified_and_draws_uniform() {
     // Every draw k of samples 0..2^m is an Owen-scrambled (0, 2)-sequence: each of the 2^a × 2^(m−a)

@@ -116,8 +116,8 @@ pub struct NlosTracer<'a> {
     scan_cones: Vec<Option<ScanCone>>,
     /// Per camera pixel, the one small shape its rays can meet, if only one.
     sole_shapes: Vec<Option<u32>>,
-    /// Per camera pixel, whether its cone judges a path's first direction before the path's
-    /// first vertex is found ([`Self::turned_down_first`]).
+    /// Per pixel, whether its cone judges a path's first direction before anything else is
+    /// done ([`Self::turned_down_first`]).
     cone_first: Vec<bool>,
     /// The scan points' bounding box (without a camera).
     pub(super) scan_box: Option<[Vec3A; 2]>,
@@ -183,7 +183,8 @@ impl<'a> NlosTracer<'a> {
                     .map(|v| v.map(|v| (v.it, v.wi, 0.0)))
                     .collect(),
                 Vec::new(),
-                Vec::new(),
+                // A scan point is its path's first vertex, whatever the samples draw.
+                vec![true; scan_vertices.len()],
             ),
         };
         let scan_cones = scan_cones(scene, &bsdfs, &scan_points, pixels);
@@ -432,11 +433,12 @@ impl<'a> NlosTracer<'a> {
         }
     }
 
-    /// Whether a camera pixel whose every ray meets one flat sheet (of which `x` is the central
-    /// ray's point, `wi` the direction back from it) has its paths' first vertex there needed
-    /// only for their next direction: the first bounce connects nothing (the laser spots lie on
-    /// that sheet, or no such connection is kept), samples that direction from the BSDF about
-    /// the normal of the pixel's cone whatever triangle is met, and draws nothing before it.
+    /// Whether a pixel's paths need their first vertex only for their next direction: a scan
+    /// point, or a camera pixel whose every ray meets one flat sheet (of which `x` is the
+    /// central ray's point, `wi` the direction back from it). The first bounce connects nothing
+    /// (the laser spots lie on that sheet, or no such connection is kept, or the fixed
+    /// contributions pass it), samples that direction from the BSDF about the normal of the
+    /// pixel's cone wherever the vertex lies, and draws nothing before it.
     fn bare_first_vertex(&self, pixel: usize, x: &Interaction, wi: Vec3A) -> bool {
         let shape = x.shape as usize;
         let (all_delta, some_delta) = self.delta[shape];
@@ -449,15 +451,25 @@ impl<'a> NlosTracer<'a> {
         let Some(cone) = self.scan_cones[pixel].as_ref() else {
             return false;
         };
-        let flip = self.scene.normal_sign(shape);
-        let drawn_about_cone = self.scene.prims[self.scene.shapes[shape].prims.clone()]
-            .iter()
-            .all(|p| match p {
-                Prim::Triangle { n, .. } => self.bsdfs[shape]
-                    .diffuse_normal(*n * flip, wi)
-                    .is_some_and(|n| n.dot(wi) > 0.0 && cone.drawn_about(n)),
-                _ => false,
-            });
+        let about_cone = |n: Vec3A| {
+            self.bsdfs[shape]
+                .diffuse_normal(n, wi)
+                .is_some_and(|n| n.dot(wi) > 0.0 && cone.drawn_about(n))
+        };
+        let drawn_about_cone = match self.camera {
+            // A scan point is the vertex itself.
+            None => cone.holds_at(x) && about_cone(x.ns),
+            // A camera ray meets any of the sheet's triangles.
+            Some(_) => {
+                let flip = self.scene.normal_sign(shape);
+                self.scene.prims[self.scene.shapes[shape].prims.clone()]
+                    .iter()
+                    .all(|p| match p {
+                        Prim::Triangle { n, .. } => about_cone(*n * flip),
+                        _ => false,
+                    })
+            }
+        };
         connects_nothing
             && drawn_about_cone
             && !self.ends_before_connecting(0)
@@ -508,25 +520,21 @@ impl<'a> NlosTracer<'a> {
             .filter(|_| !some_delta && self.settings.hgs_max_depth.is_none_or(|m| depth < m))
     }
 
-    /// With a camera, whether the path's first direction is turned down by its pixel's cone
-    /// before its first vertex is found, where that vertex is needed for nothing else
-    /// ([`Self::bare_first_vertex`]). It reads the random numbers the path would draw, the
-    /// jitter and then the BSDF's square sample, and takes them only if the path ends.
+    /// How many samples of `pixel` in a row, at most `max`, end at their first random numbers:
+    /// their cone turns the path's first direction down before anything is traced, where the
+    /// first vertex is needed for nothing else ([`Self::bare_first_vertex`]). It reads the
+    /// random numbers each path would draw (with a camera the jitter, then the BSDF's square
+    /// sample) and takes them only if the path ends.
     #[inline(always)]
-    fn turned_down_first(&self, pixel: usize, rng: &mut Sampler) -> bool {
-        if !self.cone_first[pixel] {
-            return false;
+    fn turned_down_first(&self, pixel: usize, rng: &mut Sampler, max: u64) -> u64 {
+        if max == 0 || !self.cone_first[pixel] {
+            return 0;
         }
         let Some(cone) = self.scan_cones[pixel].as_ref() else {
-            return false;
+            return 0;
         };
-        let mut ahead = rng.clone();
-        ahead.next_2d();
-        if cone.may_reach_square(ahead.next_2d()) {
-            return false;
-        }
-        *rng = ahead;
-        true
+        let jitter = usize::from(self.camera.is_some());
+        rng.turned_down(max, jitter, |u| !cone.may_reach_square(u))
     }
 
     /// [`Self::first_vertex`] with a camera (out of line: the scan points' case stays small
@@ -602,6 +610,10 @@ impl Tracer for NlosTracer<'_> {
     type Path = NlosPath;
     const IN_FLIGHT: usize = 2;
 
+    fn turned_down(&self, pixel: usize, rng: &mut Sampler, max: u64) -> u64 {
+        self.turned_down_first(pixel, rng, max)
+    }
+
     /// A path of `pixel`: its first vertex is found by its first bounce (a scan point is read
     /// where it is kept, not copied).
     #[inline]
@@ -661,9 +673,6 @@ impl NlosTracer<'_> {
         let v = match (depth, self.camera) {
             (0, None) => self.scan_vertices[pixel].as_ref(),
             (0, Some(camera)) => {
-                if self.turned_down_first(pixel, rng) {
-                    return false;
-                }
                 first = self.camera_vertex(camera, pixel, rng);
                 first.as_ref()
             }

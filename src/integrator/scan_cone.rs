@@ -139,11 +139,13 @@ impl ScanCone {
         // The concentric map's own first step (the same rounding).
         let q = Vec2::new(2.0 * u.x - 1.0, 2.0 * u.y - 1.0);
         let r = q.x.abs().max(q.y.abs());
-        r >= self.ring[0]
-            && r <= self.ring[1]
-            && self
-                .sector
-                .is_none_or(|[a, b]| a.perp_dot(q) >= 0.0 && q.perp_dot(b) >= 0.0)
+        // Every test made, without branches between them: the caller's one branch on the answer
+        // is the only one a sample can mispredict.
+        let sector = match self.sector {
+            Some([a, b]) => (a.perp_dot(q) >= 0.0) & (q.perp_dot(b) >= 0.0),
+            None => true,
+        };
+        (r >= self.ring[0]) & (r <= self.ring[1]) & sector
     }
 
     /// Whether the unit direction `w` lies in the cone.

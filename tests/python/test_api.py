@@ -50,6 +50,21 @@ def test_deterministic_whatever_the_thread_count():
     assert not np.array_equal(a[1], c[1])
 
 
+@pytest.mark.parametrize("capture_type", ["single", "confocal"])
+def test_runs_of_turned_down_samples_change_no_bits(capture_type):
+    # With hidden-geometry sampling off most samples are turned down by their scan point's cone
+    # at their first random numbers. Without variance the render loop passes over runs of them;
+    # with it, each sample is finished alone (its values are kept). 600 samples: past a block of
+    # 256, where a run stops.
+    d = nlos_rs.scenes.z_nlos_1corner(width=6, height=5, spp=600, capture_type=capture_type)
+    d["integrator"]["nlos_hidden_geometry_sampling"] = False
+    scene = nlos_rs.load_dict(d)
+    runs = nlos_rs.render(scene, seed=4, threads=2, progress=False)
+    alone = nlos_rs.render(scene, seed=4, threads=1, progress=False, return_variance=True)
+    assert np.array_equal(runs[1], alone[1]) and np.array_equal(runs[0], alone[0])
+    assert runs[1].sum() > 0
+
+
 def test_xml_route_equals_dict_route(tmp_path):
     d = small()
     xml = f"""<scene version="3.5.0">
