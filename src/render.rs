@@ -517,12 +517,36 @@ fn zero_bins(n: usize) -> Vec<f32> {
         }
     };
     let mut bins = vec![0.0f32; n];
+    huge_pages(&mut bins);
     if rayon::current_thread_index().is_some() {
         bins.par_chunks_mut(64 * PAGE).for_each(touch);
     } else {
         bins.chunks_mut(64 * PAGE).for_each(touch);
     }
     bins
+}
+
+/// Ask Linux to back `bins` with 2 MiB pages where it can (transparent huge pages, in the
+/// `madvise` mode most distributions set): a 128×128×750 film of 49 MB then takes about 25 page
+/// faults instead of 12,000, and is released as quickly. A hint only, whose failure changes
+/// nothing; elsewhere nothing is done.
+fn huge_pages(bins: &mut [f32]) {
+    #[cfg(target_os = "linux")]
+    {
+        const PAGE: usize = 4096;
+        let start = bins.as_mut_ptr() as usize;
+        let (first, end) = (
+            start.next_multiple_of(PAGE),
+            (start + size_of_val(bins)) / PAGE * PAGE,
+        );
+        if end >= first + (2 << 20) {
+            // SAFETY: [first, end) is whole pages within `bins`' allocation; MADV_HUGEPAGE
+            // changes how the kernel backs them, never what they hold.
+            unsafe { libc::madvise(first as *mut libc::c_void, end - first, libc::MADV_HUGEPAGE) };
+        }
+    }
+    #[cfg(not(target_os = "linux"))]
+    let _ = bins;
 }
 
 /// `tasks` slices of `len` of `buf`, or `tasks` times `None` when `buf` is empty (no variance).
