@@ -6,8 +6,8 @@
 //! techniques of Tienda Hernando 2023 (Hidden Geometry Rejection Sampling, temporal kernel density
 //! estimation). docs/architecture.md walks through the flow; in dependency order:
 //!
-//! * [`math`], [`error`], [`sampling`]: transforms, spectra and frames; the one error type; random
-//!   streams and warps.
+//! * [`math`], [`error`], [`sampling`], [`cache`]: transforms, spectra and frames; the one error
+//!   type; random streams and warps; prefetch hints.
 //! * [`props`] (a scene description as a property tree) ← [`xml`] (Mitsuba XML files).
 //! * [`geometry`] (primitives, meshes, the BVH), [`bsdf`] (one file per BSDF), [`film`] (grid, time
 //!   axis and the temporal kernels), [`emitter`] (laser, lights), [`sensor`] (capture meter, camera),
@@ -24,6 +24,7 @@
 #![warn(missing_docs)]
 
 pub mod bsdf;
+pub mod cache;
 pub mod capture;
 pub mod emitter;
 pub mod error;
