@@ -6,6 +6,7 @@ use crate::bsdf::Bsdf;
 use crate::error::{NlosError, Result};
 use crate::geometry::Interaction;
 use crate::math::Spectrum;
+use crate::parallel::map_indices;
 use crate::scene::{Nlos, Scene};
 use crate::settings::CaptureType;
 use glam::{Vec2, Vec3A};
@@ -104,18 +105,15 @@ pub fn scan_points(scene: &Scene) -> Result<Vec<Option<Interaction>>> {
             .collect();
         return check_visible(points);
     }
-    let mut points = Vec::with_capacity(film.width * film.height);
-    for y in 0..film.height {
-        for x in 0..film.width {
-            let uv = Vec2::new(
-                (x as f32 + 0.5) / film.width as f32,
-                (y as f32 + 0.5) / film.height as f32,
-            );
-            let (target, _) = scene.relay_wall_point(uv)?;
-            points.push(seen_through(target));
-        }
-    }
-    check_visible(points)
+    let w = film.width;
+    let points = map_indices(w * film.height, |i| {
+        let uv = Vec2::new(
+            ((i % w) as f32 + 0.5) / w as f32,
+            ((i / w) as f32 + 0.5) / film.height as f32,
+        );
+        Ok(seen_through(scene.relay_wall_point(uv)?.0))
+    });
+    check_visible(points.into_iter().collect::<Result<_>>()?)
 }
 
 fn check_visible(points: Vec<Option<Interaction>>) -> Result<Vec<Option<Interaction>>> {
@@ -151,16 +149,14 @@ pub fn laser_spots(
     };
     // Confocal / equal-grid exhaustive: a spot at every scan point, the laser re-aimed at each.
     let at_scan_points = || -> Result<Vec<Spot>> {
-        scan_points
-            .iter()
-            .enumerate()
-            .map(|(i, t)| {
-                if i % 4096 == 4095 && cancel.load(Ordering::Relaxed) {
-                    return Err(NlosError::Interrupted);
-                }
-                Ok(t.map_or(Spot::DARK, |it| lit.spot(it, true)))
-            })
-            .collect()
+        map_indices(scan_points.len(), |i| {
+            if i % 4096 == 4095 && cancel.load(Ordering::Relaxed) {
+                return Err(NlosError::Interrupted);
+            }
+            Ok(scan_points[i].map_or(Spot::DARK, |it| lit.spot(it, true)))
+        })
+        .into_iter()
+        .collect()
     };
     Ok(match settings.capture_type {
         CaptureType::Single => {

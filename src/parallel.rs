@@ -28,3 +28,15 @@ pub fn pool(threads: Option<usize>) -> Result<rayon::ThreadPool> {
         .build()
         .map_err(|e| NlosError::Scene(format!("cannot start {n} threads: {e}")))
 }
+
+/// `f(i)` for every `i` in `0..n`, in order: spread over the threads of the pool this is called
+/// from (a render's, whose per-scan-point preparation this is), or on this thread alone outside
+/// one (never on rayon's global pool). The result does not depend on which.
+pub fn map_indices<T: Send>(n: usize, f: impl Fn(usize) -> T + Sync + Send) -> Vec<T> {
+    use rayon::prelude::*;
+    if rayon::current_thread_index().is_some() {
+        (0..n).into_par_iter().map(f).collect()
+    } else {
+        (0..n).map(f).collect()
+    }
+}

@@ -208,6 +208,41 @@ fn bit_identical_whatever_the_thread_count() {
 }
 
 #[test]
+fn per_scan_point_preparation_is_the_same_in_a_pool_and_outside() {
+    // A render prepares its scan points and laser spots on its own pool's threads
+    // (`parallel::map_indices`); called outside a pool (the binding's `scan_points`) the same
+    // work runs on the caller's thread. Both give the same points, in order.
+    let scene = load(&scene_props(
+        vec![("capture_type", Value::Str("confocal".into()))],
+        vec![("width", Value::Int(40)), ("height", Value::Int(30))],
+    ));
+    let alone = nlos_rs::capture::scan_points(&scene).expect("scan points");
+    let pool = nlos_rs::parallel::pool(Some(3)).expect("pool");
+    let shared = pool.install(|| nlos_rs::capture::scan_points(&scene).expect("scan points"));
+    assert_eq!(alone.len(), 1200);
+    assert!(alone.iter().any(Option::is_some));
+    let key = |p: &[Option<nlos_rs::geometry::Interaction>]| {
+        p.iter()
+            .map(|x| x.map(|x| (x.p.to_array().map(f32::to_bits), x.shape)))
+            .collect::<Vec<_>>()
+    };
+    assert_eq!(key(&alone), key(&shared));
+    let spots = |p: &[Option<nlos_rs::geometry::Interaction>]| {
+        nlos_rs::capture::laser_spots(&scene, p, true, &Default::default())
+            .expect("spots")
+            .iter()
+            .map(|s| {
+                (
+                    s.it.p.to_array().map(f32::to_bits),
+                    s.incident.to_array().map(f32::to_bits),
+                )
+            })
+            .collect::<Vec<_>>()
+    };
+    assert_eq!(spots(&alone), pool.install(|| spots(&alone)));
+}
+
+#[test]
 fn steady_is_the_time_integral_when_the_window_holds_everything() {
     let scene = load(&scene_props(vec![], vec![]));
     let r = render(

@@ -18,6 +18,7 @@ use crate::error::{NlosError, Result};
 use crate::geometry::bvh::intersect_brute;
 use crate::geometry::{Hit, Interaction, Prim};
 use crate::math::{COS_EPS, Spectrum};
+use crate::parallel::map_indices;
 use crate::sampling::Sampler;
 use crate::scene::{AreaSampler, Scene};
 use crate::sensor::Camera;
@@ -165,11 +166,9 @@ impl<'a> NlosTracer<'a> {
         let capture = Capture::new(scene, mono, cancel)?;
         let scan_vertices: Vec<Option<Vertex>> = match nlos.camera {
             Some(_) => Vec::new(),
-            None => capture
-                .scan_points
-                .iter()
-                .map(|it| it.map(|it| sensor_vertex(settings, it, scene.meter.origin)))
-                .collect(),
+            None => map_indices(capture.scan_points.len(), |i| {
+                capture.scan_points[i].map(|it| sensor_vertex(settings, it, scene.meter.origin))
+            }),
         };
         // Where paths leave from: the scan points themselves, or each camera pixel's footprint.
         let (scan_points, sole_shapes, covered) = match &nlos.camera {

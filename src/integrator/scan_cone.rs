@@ -27,6 +27,7 @@
 use crate::bsdf::Bsdf;
 use crate::geometry::{Interaction, Prim, Ray};
 use crate::math::{Frame, RAY_EPS, Spectrum};
+use crate::parallel::map_indices;
 use crate::scene::Scene;
 use crate::sensor::Camera;
 use glam::{Vec2, Vec3A};
@@ -179,19 +180,21 @@ pub fn scan_cones(
     scan_points: &[Option<(Interaction, Vec3A, f32)>],
     pixels: Range<usize>,
 ) -> Vec<Option<ScanCone>> {
+    // The sphere around everything but each shape a scan point lies on, made once.
     let mut spheres = Spheres::default();
-    scan_points
-        .iter()
-        .enumerate()
-        .map(|(pixel, point)| {
-            let (x, wi, reach) = point.as_ref().filter(|_| pixels.contains(&pixel))?;
-            let n = bsdfs[x.shape as usize].diffuse_normal(x.ns, *wi)?;
-            if !(n == x.ng || n == -x.ng) || !wall_behind(scene, x, n) {
-                return None;
-            }
-            ScanCone::new(x, n, *reach, spheres.around_all_but(scene, x.shape)?)
-        })
-        .collect()
+    for (x, _, _) in scan_points.iter().flatten() {
+        spheres.around_all_but(scene, x.shape);
+    }
+    map_indices(scan_points.len(), |pixel| {
+        let (x, wi, reach) = scan_points[pixel]
+            .as_ref()
+            .filter(|_| pixels.contains(&pixel))?;
+        let n = bsdfs[x.shape as usize].diffuse_normal(x.ns, *wi)?;
+        if !(n == x.ng || n == -x.ng) || !wall_behind(scene, x, n) {
+            return None;
+        }
+        ScanCone::new(x, n, *reach, spheres.made(x.shape).flatten()?)
+    })
 }
 
 /// What a camera's pixels see ([`pixel_footprints`]).
@@ -426,14 +429,22 @@ struct Spheres(Vec<(u32, Option<(Vec3A, f32)>)>);
 
 impl Spheres {
     fn around_all_but(&mut self, scene: &Scene, shape: u32) -> Option<(Vec3A, f32)> {
-        match self.0.iter().find(|(s, _)| *s == shape) {
-            Some((_, sphere)) => *sphere,
+        match self.made(shape) {
+            Some(sphere) => sphere,
             None => {
                 let sphere = bounding_sphere(scene, shape as usize);
                 self.0.push((shape, sphere));
                 sphere
             }
         }
+    }
+
+    /// The sphere around everything but `shape`, if made already (and if there is one).
+    fn made(&self, shape: u32) -> Option<Option<(Vec3A, f32)>> {
+        self.0
+            .iter()
+            .find(|(s, _)| *s == shape)
+            .map(|(_, sphere)| *sphere)
     }
 }
 
