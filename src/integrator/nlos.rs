@@ -118,7 +118,7 @@ pub struct NlosTracer<'a> {
     /// Per camera pixel, the one small shape its rays can meet, if only one.
     sole_shapes: Vec<Option<u32>>,
     /// Per pixel, whether its cone judges a path's first direction before anything else is
-    /// done ([`Self::turned_down_first`]).
+    /// done ([`Tracer::turned_down`]).
     cone_first: Vec<bool>,
     /// The scan points' bounding box (without a camera).
     pub(super) scan_box: Option<[Vec3A; 2]>,
@@ -519,23 +519,6 @@ impl<'a> NlosTracer<'a> {
             .filter(|_| !some_delta && self.settings.hgs_max_depth.is_none_or(|m| depth < m))
     }
 
-    /// How many samples of `pixel` in a row, at most `max`, end at their first random numbers:
-    /// their cone turns the path's first direction down before anything is traced, where the
-    /// first vertex is needed for nothing else ([`Self::bare_first_vertex`]). It reads the
-    /// random numbers each path would draw (with a camera the jitter, then the BSDF's square
-    /// sample) and takes them only if the path ends.
-    #[inline(always)]
-    fn turned_down_first(&self, pixel: usize, rng: &mut Sampler, max: u64) -> u64 {
-        if max == 0 || !self.cone_first[pixel] {
-            return 0;
-        }
-        let Some(cone) = self.scan_cones[pixel].as_ref() else {
-            return 0;
-        };
-        let jitter = usize::from(self.camera.is_some());
-        rng.turned_down(max, jitter, |u| !cone.may_reach_square(u))
-    }
-
     /// [`Self::first_vertex`] with a camera (out of line: the scan points' case stays small
     /// where it is inlined).
     #[inline(never)]
@@ -609,8 +592,21 @@ impl Tracer for NlosTracer<'_> {
     type Path = NlosPath;
     const IN_FLIGHT: usize = 2;
 
+    /// How many samples of `pixel` in a row, at most `max`, end at their first random numbers:
+    /// their cone turns the path's first direction down before anything is traced, where the
+    /// first vertex is needed for nothing else ([`Self::bare_first_vertex`]). It reads the
+    /// random numbers each path would draw (with a camera the jitter, then the BSDF's square
+    /// sample) and takes them only if the path ends.
+    #[inline(always)]
     fn turned_down(&self, pixel: usize, rng: &mut Sampler, max: u64) -> u64 {
-        self.turned_down_first(pixel, rng, max)
+        if max == 0 || !self.cone_first[pixel] {
+            return 0;
+        }
+        let Some(cone) = self.scan_cones[pixel].as_ref() else {
+            return 0;
+        };
+        let jitter = usize::from(self.camera.is_some());
+        rng.turned_down(max, jitter, |u| !cone.may_reach_square(u))
     }
 
     /// A path of `pixel`: its first vertex is found by its first bounce (a scan point is read
