@@ -1123,35 +1123,39 @@ impl<'a, T: Tracer> Sampling<'a, T> {
     fn trace_shared(&self, pixels: Range<usize>, first: u64, end: u64, out: RunSums) -> Result<()> {
         let len = self.plan.pixel_len;
         let cancel = &self.monitor.cancel;
+        // A pass's subpaths, a list per block, kept from pass to pass: made afresh, these lists
+        // came from new pages of memory every pass (page faults, 2 % of tal's confocal file).
+        let mut lights: Vec<Vec<Option<T::Light>>> = (0..self.plan.pass_blocks)
+            .map(|_| Vec::with_capacity(BLOCK as usize))
+            .collect();
         let mut start = first;
         while start < end {
             let pass_end = (start + self.plan.pass_blocks * BLOCK).min(end);
             let n = pass_end - start;
             // The pass's blocks in parallel, each in sample order from its own stream (the
             // same for every pixel).
-            let blocks: Vec<u64> = (start..pass_end).step_by(BLOCK as usize).collect();
-            let mut lights: Vec<_> = blocks
-                .par_iter()
+            let blocks = n.div_ceil(BLOCK) as usize;
+            lights[..blocks]
+                .par_iter_mut()
                 .with_max_len(1)
-                .map(|&block_start| {
+                .enumerate()
+                .try_for_each(|(b, block)| {
+                    let block_start = start + b as u64 * BLOCK;
                     let mut rng = self.stream(SHARED_STREAM, block_start / BLOCK);
-                    let mut lights = Vec::with_capacity(BLOCK as usize);
+                    block.clear();
                     for k in block_start..(block_start + BLOCK).min(pass_end) {
                         rng.start(k);
-                        lights.push(self.tracer.trace_light(&mut rng));
+                        block.push(self.tracer.trace_light(&mut rng));
                         // A light subpath can be expensive (HGRS candidates): stay responsive.
                         if cancel.load(Ordering::Relaxed) {
                             return Err(NlosError::Interrupted);
                         }
                     }
-                    Ok(lights)
-                })
-                .collect::<Result<Vec<_>>>()?
-                .into_iter()
-                .flatten()
-                .collect();
-            lights
+                    Ok(())
+                })?;
+            lights[..blocks]
                 .par_iter_mut()
+                .flatten()
                 .flatten()
                 .for_each(|light| self.tracer.link_light(light));
             let mut squares = per_task(out.squares, len, pixels.len());
@@ -1206,7 +1210,9 @@ impl<'a, T: Tracer> Sampling<'a, T> {
                             let k1 = ((k0 / LIGHT_TILE + 1) * LIGHT_TILE)
                                 .min((k0 / BLOCK + 1) * BLOCK)
                                 .min(pass_end);
-                            let tile = &lights[(k0 - start) as usize..(k1 - start) as usize];
+                            // (A tile lies within a block, and passes start on a block.)
+                            let (b, at) = ((k0 - start) / BLOCK, (k0 - start) % BLOCK);
+                            let tile = &lights[b as usize][at as usize..(at + k1 - k0) as usize];
                             for (j, (((buf, sum), sq), pixel_rng)) in bufs
                                 .chunks_mut(len.max(1))
                                 .zip(sums.iter_mut())
