@@ -31,12 +31,14 @@ use super::wide::{Isa, Mask, Q4, Wide, WideTest, supported};
 use super::{Hit, Prim, Watertight};
 use crate::cache::prefetch;
 use glam::Vec3A;
-use std::cell::RefCell;
+use std::mem::MaybeUninit;
 
-thread_local! {
-    /// Each thread's traversal stack (node code, entry distance), reused from ray to ray.
-    static STACK: RefCell<Vec<(u32, f32)>> = const { RefCell::new(Vec::new()) };
-}
+/// Entries (node code, entry distance) of the traversal stack a ray keeps on its own frame, 2 KiB:
+/// room for a tree whose deepest path passes some seventeen full nodes ([`Accel::stack_need`]);
+/// a deeper tree's rays each allocate theirs. (A stack kept per thread and reached through
+/// thread-local storage cost a call to `__tls_get_addr` and a move of the vector each way, every
+/// ray.)
+const FRAME_STACK: usize = 256;
 
 /// An axis-aligned box (empty: min +∞, max −∞).
 #[derive(Clone, Copy, Debug)]
@@ -214,6 +216,24 @@ pub struct Accel {
     small: Option<SmallScene>,
     /// The extension the nodes are tested with (`None`: four lanes at a time in glam's `Vec4`).
     isa: Option<Isa>,
+    /// Most entries a traversal's stack can hold: over the paths from the root, the most of the
+    /// children a path's nodes have besides the one it goes on to.
+    stack_need: usize,
+}
+
+/// [`Accel::stack_need`] of the tree `nodes` (node 0 the root, each node's children after it).
+fn stack_need(nodes: &[Node]) -> usize {
+    let mut need = vec![0usize; nodes.len()];
+    for i in (0..nodes.len()).rev() {
+        let kids = nodes[i].child.iter().filter(|&&c| c != EMPTY);
+        let deepest = kids
+            .clone()
+            .filter(|&&c| c & LEAF == 0)
+            .map(|&c| need[c as usize])
+            .max();
+        need[i] = kids.count().saturating_sub(1) + deepest.unwrap_or(0);
+    }
+    need.first().copied().unwrap_or(0)
 }
 
 /// The plane key of a primitive on no shared plane.
@@ -452,6 +472,7 @@ impl Accel {
         }
         let (nodes, leaves, packs, others) = (c.nodes, c.leaves, c.packs, c.others);
         Self {
+            stack_need: stack_need(&nodes),
             nodes,
             leaves,
             packs,
@@ -466,17 +487,24 @@ impl Accel {
     }
 
     /// The tree alone once for each node test this CPU runs (each extension it has, widest
-    /// first, then four lanes of glam's `Vec4`): tests compare them.
+    /// first, then four lanes of glam's `Vec4`), then four lanes again with each ray's stack
+    /// allocated as a tree too deep for [`FRAME_STACK`] has it: tests compare them.
     pub fn each_node_test(prims: &[Prim], prim_shape: &[u32], shapes: usize) -> Vec<Self> {
-        supported()
+        let tree = |isa| Self {
+            isa,
+            ..Self::build_tree(prims, prim_shape, shapes)
+        };
+        let mut trees: Vec<Self> = supported()
             .into_iter()
             .map(Some)
             .chain([None])
-            .map(|isa| Self {
-                isa,
-                ..Self::build_tree(prims, prim_shape, shapes)
-            })
-            .collect()
+            .map(tree)
+            .collect();
+        trees.push(Self {
+            stack_need: FRAME_STACK + 1,
+            ..tree(None)
+        });
+        trees
     }
 
     /// The plane key of a point on shape `shape`: the shape if it is planar, else [`NO_PLANE`].
@@ -741,23 +769,28 @@ impl Accel {
         tmax: &mut f32,
         visit: impl FnMut(&Leaf, &mut f32) -> bool,
     ) {
-        // The stack is taken out of its cell and put back, not borrowed in a closure: a closure
-        // is not compiled with its caller's target features, and the node tests would be calls.
-        let mut stack = STACK.take();
-        stack.clear();
-        self.walk::<V, NEAREST_FIRST>(&mut stack, ray, tmax, visit);
-        STACK.set(stack);
+        let mut frame = [MaybeUninit::uninit(); FRAME_STACK];
+        let mut deep;
+        let stack = if self.stack_need <= FRAME_STACK {
+            &mut frame[..]
+        } else {
+            deep = vec![MaybeUninit::uninit(); self.stack_need];
+            &mut deep[..]
+        };
+        self.walk::<V, NEAREST_FIRST>(stack, ray, tmax, visit);
     }
 
     /// [`Self::traverse`] on `stack`.
     #[inline(always)]
     fn walk<V: Wide, const NEAREST_FIRST: bool>(
         &self,
-        stack: &mut Vec<(u32, f32)>,
+        stack: &mut [MaybeUninit<(u32, f32)>],
         ray: &TreeRay,
         tmax: &mut f32,
         mut visit: impl FnMut(&Leaf, &mut f32) -> bool,
     ) {
+        // `stack[..top]` holds the entries pushed and not yet popped.
+        let mut top = 0;
         let mut code = 0u32;
         loop {
             if code & LEAF != 0 {
@@ -794,20 +827,25 @@ impl Accel {
                         entered[at] = (node.child[lane], t);
                         n += 1;
                     }
-                    stack.extend_from_slice(&entered[..n - 1]);
+                    for &e in &entered[..n - 1] {
+                        stack[top] = MaybeUninit::new(e);
+                        top += 1;
+                    }
                     code = entered[n - 1].0;
                     continue;
                 }
             }
             // The next node on the stack still in reach.
             loop {
-                match stack.pop() {
-                    None => return,
-                    Some((c, t)) if !NEAREST_FIRST || t <= *tmax => {
-                        code = c;
-                        break;
-                    }
-                    Some(_) => {}
+                if top == 0 {
+                    return;
+                }
+                top -= 1;
+                // SAFETY: every entry below the old `top` was written by a push.
+                let (c, t) = unsafe { stack[top].assume_init() };
+                if !NEAREST_FIRST || t <= *tmax {
+                    code = c;
+                    break;
                 }
             }
         }
