@@ -10,6 +10,7 @@
 
 use crate::cache::prefetch;
 use crate::error::{NlosError, Result};
+use crate::film::memory::zero_bins;
 use crate::film::{Film, Splatter, TemporalKernel};
 use crate::integrator::{NlosTracer, PathTracer, Splat, Tracer};
 use crate::parallel::pool;
@@ -506,59 +507,6 @@ fn render_by(
             }
         })
     })
-}
-
-/// `n` zero bins for transient sums, each of their memory pages written once before the render
-/// adds to them. A fresh allocation's pages are mapped at first access; where that access is a
-/// read (a bin's `+=`), the kernel maps its shared zero page and, at the write that follows,
-/// replaces it and flushes the old mapping from every core the process runs on: an interrupt to
-/// the other cores for each 4 KiB page. On a two-core VM a 1-spp render of a 128×128×750 film
-/// took 100 ms on two threads against 49 ms on one (32 ms on two with this). A first write maps
-/// each page once, with no flush. (The stores are opaque to the optimiser, which would otherwise
-/// drop them as zeros written over zeros.) Inside a render's thread pool the pages are written by
-/// its threads, runs of 64 in parallel: the faults are most of a large film's fixed cost, and two
-/// threads take them 1.5x faster than one (tal's 16×16 × 16×16 exhaustive plane, a 196 MB film:
-/// a 1-spp render 1.35x faster on two threads, a 256-spp one 1.14x). Elsewhere (parts put
-/// together) on the calling thread alone: never on rayon's global pool, which a forked child
-/// would wait on forever (`parallel.rs`).
-fn zero_bins(n: usize) -> Vec<f32> {
-    const PAGE: usize = 4096 / std::mem::size_of::<f32>();
-    let touch = |run: &mut [f32]| {
-        for i in (0..run.len()).step_by(PAGE).chain(run.len().checked_sub(1)) {
-            run[i] = std::hint::black_box(0.0);
-        }
-    };
-    let mut bins = vec![0.0f32; n];
-    huge_pages(&mut bins);
-    if rayon::current_thread_index().is_some() {
-        bins.par_chunks_mut(64 * PAGE).for_each(touch);
-    } else {
-        bins.chunks_mut(64 * PAGE).for_each(touch);
-    }
-    bins
-}
-
-/// Ask Linux to back `bins` with 2 MiB pages where it can (transparent huge pages, in the
-/// `madvise` mode most distributions set): a 128×128×750 film of 49 MB then takes about 25 page
-/// faults instead of 12,000, and is released as quickly. A hint only, whose failure changes
-/// nothing; elsewhere nothing is done.
-fn huge_pages(bins: &mut [f32]) {
-    #[cfg(target_os = "linux")]
-    {
-        const PAGE: usize = 4096;
-        let start = bins.as_mut_ptr() as usize;
-        let (first, end) = (
-            start.next_multiple_of(PAGE),
-            (start + size_of_val(bins)) / PAGE * PAGE,
-        );
-        if end >= first + (2 << 20) {
-            // SAFETY: [first, end) is whole pages within `bins`' allocation; MADV_HUGEPAGE
-            // changes how the kernel backs them, never what they hold.
-            unsafe { libc::madvise(first as *mut libc::c_void, end - first, libc::MADV_HUGEPAGE) };
-        }
-    }
-    #[cfg(not(target_os = "linux"))]
-    let _ = bins;
 }
 
 /// `tasks` slices of `len` of `buf`, or `tasks` times `None` when `buf` is empty (no variance).

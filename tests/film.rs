@@ -1,6 +1,8 @@
 //! Temporal kernel density estimation (thesis §3.2): bin weights are the kernel's integral over
 //! each bin, they sum to one inside the window, and the box kernel is mitransient's histogram.
+//! A film's memory kept for the next render comes back as zeros.
 
+use nlos_rs::film::memory::{keep, zero_bins};
 use nlos_rs::film::{Film, GAUSSIAN_CUTOFF_SIGMAS, Splatter, TemporalKernel};
 use nlos_rs::sampling::Sampler;
 
@@ -204,4 +206,18 @@ fn auto_width_weights_conserve_energy_and_the_risk_picks_by_noise() {
     let r = risks(&noisy, &[0.0075; 200], 1, &s);
     let best = (0..r.len()).min_by(|&a, &b| r[a].total_cmp(&r[b])).unwrap();
     assert!(best >= 7 && r[best] < 0.2 * r[0], "{best}: {r:?}");
+}
+
+#[test]
+fn a_kept_film_comes_back_as_zeros() {
+    // Kept films of 1 Mi, 0.6 Mi and 3 Mi bins (4, 2.4, 12 MB) with values written in them; the
+    // films then asked for are all zeros, of the length asked, whether or not the kept one fits.
+    for (kept, asked) in [(1 << 20, 1 << 20), (1 << 20, 600_000), (3 << 20, 1 << 20)] {
+        let mut bins = zero_bins(kept);
+        assert!(bins.len() == kept && bins.iter().all(|&b| b == 0.0));
+        bins.fill(7.0);
+        keep(bins);
+        let again = zero_bins(asked);
+        assert!(again.len() == asked && again.iter().all(|&b| b == 0.0));
+    }
 }

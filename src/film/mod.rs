@@ -2,9 +2,10 @@
 //! (mitransient-model §1, §3.8). How a contribution is spread over the time bins — the box of
 //! mitransient or a temporal kernel density estimate — is in [`temporal_kernel`]; the
 //! frequency-domain `phasor_hdr_film` in [`phasor`]; a kernel width chosen per scan point in
-//! [`auto_width`].
+//! [`auto_width`]; the memory a render's film is summed in, [`memory`].
 
 pub mod auto_width;
+pub mod memory;
 pub mod phasor;
 pub mod temporal_kernel;
 

@@ -664,12 +664,32 @@ fn render<'py>(
     )?;
     let shape = out.transient_shape;
     let steady = PyArray1::from_vec(py, out.steady).reshape(out.steady_shape)?;
-    let transient = PyArray1::from_vec(py, out.transient).reshape(shape.clone())?;
+    let transient = film_array(py, out.transient)?.reshape(shape.clone())?;
     let variance = match out.variance {
-        Some(v) => PyArray1::from_vec(py, v).reshape(shape)?.into_any(),
+        Some(v) => film_array(py, v)?.reshape(shape)?.into_any(),
         None => py.None().into_bound(py),
     };
     PyTuple::new(py, [steady.into_any(), transient.into_any(), variance])
+}
+
+/// The memory of a transient lent to NumPy: when its array is freed it goes back to the core,
+/// which keeps it for the next render's film ([`crate::film::memory::keep`]).
+#[pyclass(module = "nlos_rs._core", frozen)]
+struct FilmMemory(Vec<f32>);
+
+impl Drop for FilmMemory {
+    fn drop(&mut self) {
+        crate::film::memory::keep(std::mem::take(&mut self.0));
+    }
+}
+
+/// A 1-D array over `bins`, owned by a [`FilmMemory`].
+fn film_array(py: Python<'_>, bins: Vec<f32>) -> PyResult<Bound<'_, PyArray1<f32>>> {
+    let owner = Bound::new(py, FilmMemory(bins))?;
+    let view = numpy::ndarray::ArrayView1::from(&owner.get().0[..]);
+    // SAFETY: the array's data is the vector in `owner`, its base object, which lives as long as
+    // the array does and is never resized.
+    Ok(unsafe { PyArray1::borrow_from_array(&view, owner.clone().into_any()) })
 }
 
 /// Mitsuba-convention transforms as row-major nested lists.
