@@ -243,6 +243,65 @@ fn per_scan_point_preparation_is_the_same_in_a_pool_and_outside() {
 }
 
 #[test]
+fn preparation_kept_with_the_scene_changes_nothing() {
+    // A render of every pixel keeps what it prepares (scan points, laser spots, cones) with the
+    // scene, per variant, for the renders after it (`scene::Prepared`). Those renders equal a
+    // fresh scene's; a cancelled render keeps nothing; a copy of the scene with a setting changed
+    // prepares its own.
+    let props_with = |first_leg: bool| {
+        scene_props(
+            vec![
+                ("nlos_hidden_geometry_sampling", Value::Bool(false)),
+                ("account_first_and_last_bounces", Value::Bool(first_leg)),
+            ],
+            vec![("width", Value::Int(12)), ("height", Value::Int(10))],
+        )
+    };
+    let props = props_with(false);
+    let run = |scene: &Scene, mono: bool, cancel: bool| {
+        let m = Monitor::default();
+        m.cancel.store(cancel, std::sync::atomic::Ordering::Relaxed);
+        let opts = RenderOptions {
+            spp: Some(64),
+            seed: 7,
+            threads: Some(2),
+            mono,
+            ..Default::default()
+        };
+        render(scene, &opts, &m).map(|r| (r.transient, r.steady))
+    };
+    let scene = load(&props);
+    assert!(matches!(
+        run(&scene, true, true),
+        Err(NlosError::Interrupted)
+    ));
+    let first = run(&scene, true, false).expect("render");
+    let rgb = run(&scene, false, false).expect("render");
+    assert!(first.0.iter().any(|&v| v > 0.0));
+    assert_eq!(run(&scene, true, false).expect("render"), first);
+    assert_eq!(run(&scene, false, false).expect("render"), rgb);
+    assert_eq!(run(&load(&props), true, false).expect("render"), first);
+    // The first leg counted: every scan point's path starts farther along in time.
+    let mut changed = scene.clone();
+    let nlos_rs::scene::Setup::Nlos(n) = &mut changed.setup else {
+        panic!("an NLOS scene")
+    };
+    n.settings.account_first_and_last_bounces = true;
+    let fresh = run(&load(&props_with(true)), true, false).expect("render");
+    assert_ne!(fresh, first);
+    assert_eq!(run(&changed, true, false).expect("render"), fresh);
+    // The laser aimed elsewhere, in place: its spot moves.
+    let target = Vec3A::new(0.1, 0.05, 0.0);
+    let mut aimed = load(&props);
+    aimed.focus_laser_at(target).expect("aim");
+    let fresh = run(&aimed, true, false).expect("render");
+    assert_ne!(fresh, first);
+    let mut scene = scene;
+    scene.focus_laser_at(target).expect("aim");
+    assert_eq!(run(&scene, true, false).expect("render"), fresh);
+}
+
+#[test]
 fn steady_is_the_time_integral_when_the_window_holds_everything() {
     let scene = load(&scene_props(vec![], vec![]));
     let r = render(

@@ -139,7 +139,7 @@ impl NlosTracer<'_> {
         // ---- The first hidden vertex, its area density 1/A included: the subpath's source. A
         // single capture's spot lights it (connect_spot's terms, from the other end).
         let (first, to_light, opl) = if single {
-            let spot = &self.capture.spots[0];
+            let spot = &self.scan.capture.spots[0];
             if spot.radiance == Some(Spectrum::ZERO) || spot.incident == Spectrum::ZERO {
                 return None;
             }
@@ -268,7 +268,7 @@ impl NlosTracer<'_> {
         }
         // One slot per laser point, or all in one when the film has no laser axis.
         let per_spot = self.scene.meter.film.laser_scan.is_some();
-        for (j, spot) in self.capture.spots.iter().enumerate() {
+        for (j, spot) in self.scan.capture.spots.iter().enumerate() {
             // Thousands of laser points per subpath: stay responsive to cancellation.
             if j % 1024 == 1023 && self.cancel.load(Ordering::Relaxed) {
                 break;
@@ -287,7 +287,7 @@ impl NlosTracer<'_> {
     #[inline]
     fn may_face_scan_points(&self, y: &Interaction) -> bool {
         self.scatters_behind(y)
-            || self.scan_box.is_none_or(|[lo, hi]| {
+            || self.scan.scan_box.is_none_or(|[lo, hi]| {
                 (0..8).any(|i| {
                     let c = Vec3A::select(
                         glam::BVec3A::new(i & 1 != 0, i & 2 != 0, i & 4 != 0),
@@ -361,7 +361,7 @@ impl NlosTracer<'_> {
     /// paths come with [`Self::connect_light`] or the path.
     pub(super) fn fixed_contributions(&self, pixel: usize, out: &mut impl FnMut(Splat)) {
         if self.spot_paths_fixed()
-            && let Some(x) = self.scan_vertices[pixel]
+            && let Some(x) = self.scan.scan_vertices[pixel]
             && !self.delta[x.it.shape as usize].0
         {
             self.spot_paths(pixel, &x, out);
@@ -432,7 +432,7 @@ impl NlosTracer<'_> {
                 // there; a camera's jittered first vertex moves off it), the spot's link to the
                 // first hidden vertex and the scan point's connection to it are one segment, whose
                 // shadow ray is cast once, and only if some contribution needs it.
-                let spot = &self.capture.spots[pixel];
+                let spot = &self.scan.capture.spots[pixel];
                 let same = spot.it.p == x.it.p;
                 let Some(link) = self.spot_link(&free.first, free.out, spot, !same) else {
                     return;

@@ -46,7 +46,7 @@ impl Guide {
     /// no pilot point is lit (then uniform sampling is as good as any).
     pub(super) fn learn(tracer: &NlosTracer, hg: &AreaSampler, pilot: usize) -> Option<Self> {
         let scene = tracer.scene;
-        let spots = &tracer.capture.spots;
+        let spots = &tracer.scan.capture.spots;
         let probes: Vec<_> = match tracer.settings.capture_type {
             CaptureType::Single => spots.iter().take(1).collect(),
             _ => {

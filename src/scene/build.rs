@@ -550,6 +550,7 @@ impl Scene {
             meter,
             setup,
             hidden: Default::default(),
+            prepared: Default::default(),
         })
     }
 }

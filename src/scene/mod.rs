@@ -21,6 +21,8 @@ use crate::props::Colour;
 use crate::sensor::{Camera, Meter};
 use crate::settings::{NlosSettings, PathSettings};
 use glam::{Vec2, Vec3A};
+use std::any::Any;
+use std::sync::{Arc, OnceLock};
 
 /// A shape: its primitives, BSDF and area.
 #[derive(Clone, Debug)]
@@ -102,6 +104,40 @@ pub struct Scene {
     /// Area sampling over the hidden geometry without and with the relay wall, built on first
     /// use and kept for later renders ([`Scene::hidden_geometry`]).
     pub hidden: [std::sync::OnceLock<Option<std::sync::Arc<AreaSampler>>>; 2],
+    /// What a render prepares from the scene alone, kept for later renders: code that changes
+    /// the scene in place empties it ([`Scene::focus_laser_at`]).
+    pub prepared: Prepared,
+}
+
+/// What a renderer makes from a scene alone before it traces (an NLOS capture's scan points,
+/// laser spots and cones), made once per variant (mono, rgb) and kept for later renders. Its type
+/// is the renderer's, which the scene does not know. A copy of the scene, made to change it,
+/// starts with nothing kept.
+#[derive(Default)]
+pub struct Prepared([OnceLock<Arc<dyn Any + Send + Sync>>; 2]);
+
+impl Clone for Prepared {
+    fn clone(&self) -> Self {
+        Self::default()
+    }
+}
+
+impl Prepared {
+    /// What was kept for the variant `mono`, or else `make`'s, kept (a render running alongside
+    /// may keep its own first: the same values).
+    pub fn get_or_make<T: Any + Send + Sync>(
+        &self,
+        mono: bool,
+        make: impl FnOnce() -> Result<T>,
+    ) -> Result<Arc<T>> {
+        let slot = &self.0[mono as usize];
+        if let Some(kept) = slot.get().and_then(|k| k.clone().downcast::<T>().ok()) {
+            return Ok(kept);
+        }
+        let made = Arc::new(make()?);
+        let _ = slot.set(made.clone());
+        Ok(made)
+    }
 }
 
 impl Scene {
@@ -234,6 +270,8 @@ impl Scene {
             .set_to_world(m)
             .map_err(|e| NlosError::prop("projector", "to_world", e))?;
         nlos.laser_target = target;
+        // The laser spots were prepared for the old aim.
+        self.prepared = Prepared::default();
         Ok(())
     }
 }
