@@ -51,8 +51,9 @@ fn free(p: *mut Vec<f32>) {
     }
 }
 
-/// `n` zero bins for transient sums: the kept film if it fits ([`keep`]), otherwise new memory each of their memory pages written once before the render
-/// adds to them. A fresh allocation's pages are mapped at first access; where that access is a
+/// `n` zero bins for transient sums: the kept film if it fits ([`keep`]), zeros written over it;
+/// otherwise new memory, each of its pages written once before the render adds to them. A fresh
+/// allocation's pages are mapped at first access; where that access is a
 /// read (a bin's `+=`), the kernel maps its shared zero page and, at the write that follows,
 /// replaces it and flushes the old mapping from every core the process runs on: an interrupt to
 /// the other cores for each 4 KiB page. On a two-core VM a 1-spp render of a 128×128×750 film
