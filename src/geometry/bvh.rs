@@ -758,9 +758,9 @@ impl Accel {
         miss
     }
 
-    /// Traverse the tree along `ray` on this thread's reused stack, calling `visit(leaf, tmax)`
-    /// for each leaf the ray enters before `tmax`; `visit` may shorten `tmax` and returns whether
-    /// to stop. With `NEAREST_FIRST` (closest hits) children are visited front to back and a
+    /// Traverse the tree along `ray` on a stack of its own ([`FRAME_STACK`]), calling
+    /// `visit(leaf, tmax)` for each leaf the ray enters before `tmax`; `visit` may shorten `tmax`
+    /// and returns whether to stop. With `NEAREST_FIRST` (closest hits) children are visited front to back and a
     /// popped node beyond `tmax` is skipped; without (any hit) in lane order.
     #[inline(always)]
     fn traverse<V: Wide, const NEAREST_FIRST: bool>(
