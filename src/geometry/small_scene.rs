@@ -14,9 +14,10 @@
 //! distances, as the brute-force oracle [`super::bvh::intersect_brute`] does.
 //!
 //! The scan is compiled for AVX-512 and for AVX2 and picked at run time: the widest the CPU has,
-//! or AVX2 where eight lanes hold every pack and each pack's triangles (mitransient's room: on Zen
-//! 4, with its AVX-512 operations issued as two halves, 1.03× with hidden-geometry sampling on and
-//! 1.11× with it off). A CPU with neither (or another architecture) uses the BVH.
+//! or AVX2 where eight lanes hold every pack and its packs take few more eight-lane steps than
+//! sixteen-lane ones (on Zen 4, with its AVX-512 operations issued as two halves: mitransient's
+//! room 1.03× with hidden-geometry sampling on and 1.11× with it off, the Cornell boxes 1.03×). A
+//! CPU with neither (or another architecture) uses the BVH.
 
 use super::bvh::slab;
 use super::triangle_pack::Pack;
@@ -104,10 +105,19 @@ impl SmallScene {
             }
             packs.push(pack);
         }
-        // The narrowest extension where eight lanes hold every pack's box and each pack's
-        // triangles (a room of walls), else the widest: a step takes the same lanes either way,
-        // and on Zen 4 an AVX-512 operation issues as two 256-bit halves.
-        let eight = packs.len() <= 8 && packs.iter().all(|p| p.valid.count_ones() <= 8);
+        // The narrowest extension where eight lanes hold every pack's box and the packs take
+        // fewer than 1.5 times as many eight-lane steps as sixteen-lane ones, else the widest: on
+        // Zen 4 an AVX-512 operation issues as two 256-bit halves. (A room of walls, packs of up
+        // to six triangles: as many steps either way. A Cornell box, six packs of two and two of
+        // twelve: ten against eight, 1.03×. The Z, packs of 16, 16, 4 and 2: six against four,
+        // 0.95–0.97× when it took eight lanes.)
+        let steps = |w: u32| {
+            packs
+                .iter()
+                .map(|p| p.valid.count_ones().div_ceil(w))
+                .sum::<u32>()
+        };
+        let eight = packs.len() <= 8 && 2 * steps(8) < 3 * steps(16);
         let isa = if eight { isas[isas.len() - 1] } else { isas[0] };
         Some(Self {
             all: (1 << packs.len()) - 1,
