@@ -40,3 +40,14 @@ pub fn map_indices<T: Send>(n: usize, f: impl Fn(usize) -> T + Sync + Send) -> V
         (0..n).map(f).collect()
     }
 }
+
+/// `f` on each run of `len` items of `items` (the last may be shorter): spread over the threads of
+/// the pool this is called from, or on this thread alone outside one, as [`map_indices`].
+pub fn for_each_run<T: Send>(items: &mut [T], len: usize, f: impl Fn(&mut [T]) + Sync + Send) {
+    use rayon::prelude::*;
+    if rayon::current_thread_index().is_some() {
+        items.par_chunks_mut(len).for_each(f);
+    } else {
+        items.chunks_mut(len).for_each(f);
+    }
+}

@@ -8,7 +8,7 @@
 //! next render whose film fits writes zeros over it instead, as Dr.Jit's allocation cache keeps
 //! freed memory for mitransient's next render.
 
-use rayon::prelude::*;
+use crate::parallel::for_each_run;
 use std::ptr::null_mut;
 use std::sync::atomic::{AtomicPtr, Ordering};
 
@@ -67,17 +67,12 @@ fn free(p: *mut Vec<f32>) {
 /// would wait on forever (`parallel.rs`).
 pub fn zero_bins(n: usize) -> Vec<f32> {
     const PAGE: usize = 4096 / std::mem::size_of::<f32>();
-    let in_pool = rayon::current_thread_index().is_some();
     if size_of::<f32>() * n >= KEEP_MIN
         && let Some(mut bins) = kept(n)
     {
         // Pages mapped already: zeros written over the last render's values.
         bins.truncate(n);
-        if in_pool {
-            bins.par_chunks_mut(64 * PAGE).for_each(|run| run.fill(0.0));
-        } else {
-            bins.fill(0.0);
-        }
+        for_each_run(&mut bins, 64 * PAGE, |run| run.fill(0.0));
         return bins;
     }
     let touch = |run: &mut [f32]| {
@@ -87,11 +82,7 @@ pub fn zero_bins(n: usize) -> Vec<f32> {
     };
     let mut bins = vec![0.0f32; n];
     huge_pages(&mut bins);
-    if in_pool {
-        bins.par_chunks_mut(64 * PAGE).for_each(touch);
-    } else {
-        bins.chunks_mut(64 * PAGE).for_each(touch);
-    }
+    for_each_run(&mut bins, 64 * PAGE, touch);
     bins
 }
 
