@@ -340,9 +340,12 @@ fn analytic_primitives() {
 
 /// A shadow segment from a point of one planar shape to a point of another never meets either
 /// plane, so skipping their primitives changes no answer: with an occluder in between (tested),
-/// and without one (nothing left to test).
+/// and without one (nothing left to test). The far end is a quad (the small-scene scan) or a disk,
+/// which is planar too (the tree, with the disk among its other primitives); the occluder a
+/// triangle, a sphere or a tilted disk, which no plane key of the ends skips.
 #[test]
 fn skipping_the_end_planes_changes_no_answer() {
+    use glam::{Affine3A, Quat, Vec3};
     let mut rng = Sampler::new(11, 0, 0);
     let quad = |z: f32, s: f32| {
         let v = |x: f32, y: f32| Vec3A::new(x * s, y * s, z);
@@ -351,41 +354,73 @@ fn skipping_the_end_planes_changes_no_answer() {
             Prim::triangle([v(-1.0, -1.0), v(1.0, 1.0), v(-1.0, 1.0)]),
         ]
     };
-    // Shape 0: a relay wall at z = 0; shape 1: a flat letter-sized quad at z = 1; shape 2: a
-    // tilted occluder between them.
-    let mut prims: Vec<Prim> = quad(0.0, 1.0).into();
-    prims.extend(quad(1.0, 0.4));
-    let mut shapes = vec![0u32, 0, 1, 1];
-    for with_occluder in [true, false] {
-        if with_occluder {
-            prims.push(Prim::triangle([
-                Vec3A::new(-0.3, -0.5, 0.4),
-                Vec3A::new(0.5, -0.2, 0.6),
-                Vec3A::new(0.0, 0.5, 0.5),
-            ]));
-            shapes.push(2);
-        } else {
-            prims.truncate(4);
-            shapes.truncate(4);
+    let disk = |to_world: Affine3A| Prim::Disk {
+        inv: to_world.inverse(),
+    };
+    let occluders = [
+        None,
+        Some(Prim::triangle([
+            Vec3A::new(-0.3, -0.5, 0.4),
+            Vec3A::new(0.5, -0.2, 0.6),
+            Vec3A::new(0.0, 0.5, 0.5),
+        ])),
+        Some(Prim::Sphere {
+            center: Vec3A::new(0.1, 0.0, 0.5),
+            radius: 0.25,
+        }),
+        Some(disk(Affine3A::from_scale_rotation_translation(
+            Vec3::splat(0.3),
+            Quat::from_rotation_x(0.7),
+            Vec3::new(0.0, 0.1, 0.5),
+        ))),
+    ];
+    for far_disk in [false, true] {
+        for occluder in &occluders {
+            // Shape 0: a relay wall at z = 0; shape 1: a flat letter-sized quad (or a disk of
+            // radius 0.4) at z = 1; shape 2: the occluder between them.
+            let mut prims: Vec<Prim> = quad(0.0, 1.0).into();
+            let mut shapes = vec![0u32, 0];
+            if far_disk {
+                prims.push(disk(Affine3A::from_scale_rotation_translation(
+                    Vec3::splat(0.4),
+                    Quat::IDENTITY,
+                    Vec3::new(0.0, 0.0, 1.0),
+                )));
+                shapes.push(1);
+            } else {
+                prims.extend(quad(1.0, 0.4));
+                shapes.extend([1, 1]);
+            }
+            prims.extend(*occluder);
+            shapes.extend(occluder.map(|_| 2));
+            let accel = Accel::build(&prims, &shapes, 3);
+            let ends = [accel.plane_of(0), accel.plane_of(1)];
+            assert!(ends.iter().all(|&k| k != NO_PLANE));
+            let planar_occluder = !matches!(occluder, Some(Prim::Sphere { .. }));
+            assert_eq!(accel.plane_of(2) != NO_PLANE, planar_occluder);
+            let (mut blocked, n) = (0, 20_000);
+            for _ in 0..n {
+                let mut u = || rng.next_1d() * 2.0 - 1.0;
+                let x = Vec3A::new(u(), u(), 0.0);
+                let y = Vec3A::new(0.4 * u(), 0.4 * u(), 1.0);
+                // As `shadow_segment`: off the wall along its normal, ending short of y.
+                let o = x + Vec3A::Z * 1e-4;
+                let d = (y - o).normalize();
+                let tmax = (y - o).length() * (1.0 - 1e-3);
+                let full = accel.unoccluded(o, d, 0.0, tmax, NONE);
+                assert_eq!(accel.unoccluded(o, d, 0.0, tmax, ends), full);
+                // Skipping one end, as a shadow ray towards a point that is no surface's.
+                assert_eq!(accel.unoccluded(o, d, 0.0, tmax, [ends[0], NO_PLANE]), full);
+                assert_eq!(
+                    full,
+                    intersect_brute(&prims, o, d, 0.0, tmax).is_none(),
+                    "{occluder:?}"
+                );
+                blocked += !full as usize;
+            }
+            // The occluder blocks a fair share of the segments; without it none is blocked.
+            assert_eq!(blocked > n / 20, occluder.is_some(), "{blocked}");
         }
-        let accel = Accel::build(&prims, &shapes, 3);
-        let ends = [accel.plane_of(0), accel.plane_of(1)];
-        assert!(ends.iter().all(|&k| k != NO_PLANE) && accel.plane_of(2) != NO_PLANE);
-        let (mut blocked, n) = (0, 20_000);
-        for _ in 0..n {
-            let mut u = || rng.next_1d() * 2.0 - 1.0;
-            let x = Vec3A::new(u(), u(), 0.0);
-            let y = Vec3A::new(0.4 * u(), 0.4 * u(), 1.0);
-            // As `shadow_segment`: off the wall along its normal, ending short of y.
-            let o = x + Vec3A::Z * 1e-4;
-            let d = (y - o).normalize();
-            let tmax = (y - o).length() * (1.0 - 1e-3);
-            let full = accel.unoccluded(o, d, 0.0, tmax, NONE);
-            assert_eq!(accel.unoccluded(o, d, 0.0, tmax, ends), full);
-            blocked += !full as usize;
-        }
-        // The occluder blocks a fair share of the segments; without it none is blocked.
-        assert_eq!(blocked > n / 20, with_occluder, "{blocked}");
     }
 }
 

@@ -201,9 +201,9 @@ pub struct Accel {
     nodes: Vec<Node>,
     leaves: Vec<Leaf>,
     packs: Vec<Pack<LEAF_LANES>>,
-    /// Spheres and disks, with their index in scene order (their plane key is [`NO_PLANE`]).
-    others: Vec<(Prim, u32)>,
-    /// Per shape: all its primitives are triangles in one plane.
+    /// Spheres and disks, with their index in scene order and plane key ([`Self::plane_of`]).
+    others: Vec<(Prim, u32, u32)>,
+    /// Per shape: all its primitives are triangles or disks in one plane.
     planar: Vec<bool>,
     /// Per shape: its number of primitives.
     shape_prims: Vec<u32>,
@@ -240,8 +240,9 @@ fn stack_need(nodes: &[Node]) -> usize {
 pub const NO_PLANE: u32 = u32::MAX;
 
 /// Per shape (of `shapes`, owning `prims` by `prim_shape`): whether all its primitives are
-/// triangles whose vertices lie within rounding (1e-6 of the coordinates' magnitude) of one plane
-/// (a rectangle, a relay wall, a flat letter).
+/// triangles or disks whose points lie within rounding (1e-6 of the coordinates' magnitude) of
+/// one plane (a rectangle, a relay wall, a flat letter, a disk; a disk is judged by its centre and
+/// two points of its rim).
 fn planar_shapes(prims: &[Prim], prim_shape: &[u32], shapes: usize) -> Vec<bool> {
     let mut plane: Vec<Option<(Vec3A, f32)>> = vec![None; shapes];
     let mut planar = vec![true; shapes];
@@ -250,11 +251,19 @@ fn planar_shapes(prims: &[Prim], prim_shape: &[u32], shapes: usize) -> Vec<bool>
         if !planar[s] {
             continue;
         }
-        let Prim::Triangle { v, n } = p else {
-            planar[s] = false;
-            continue;
+        let (v, n) = match p {
+            Prim::Triangle { v, n } => (*v, *n),
+            Prim::Disk { inv } => {
+                let m = inv.inverse();
+                let on = [Vec3A::ZERO, Vec3A::X, Vec3A::Y].map(|q| m.transform_point3a(q));
+                (on, Prim::disk_normal(inv))
+            }
+            Prim::Sphere { .. } => {
+                planar[s] = false;
+                continue;
+            }
         };
-        let (n0, d0) = *plane[s].get_or_insert((*n, n.dot(v[0])));
+        let (n0, d0) = *plane[s].get_or_insert((n, n.dot(v[0])));
         planar[s] = v
             .iter()
             .all(|v| (n0.dot(*v) - d0).abs() <= 1e-6 * (1.0 + v.abs().max_element()));
@@ -321,7 +330,7 @@ struct Collapse<'a> {
     nodes: Vec<Node>,
     leaves: Vec<Leaf>,
     packs: Vec<Pack<LEAF_LANES>>,
-    others: Vec<(Prim, u32)>,
+    others: Vec<(Prim, u32, u32)>,
 }
 
 impl<'a> Collapse<'a> {
@@ -403,12 +412,12 @@ impl<'a> Collapse<'a> {
         let range = n.first as usize..(n.first + n.count) as usize;
         for &index in &self.tree.order[range] {
             let prim = self.prims[index as usize];
+            let plane = (self.plane)(index as usize);
             let Prim::Triangle { v, .. } = prim else {
-                self.others.push((prim, index));
+                self.others.push((prim, index, plane));
                 continue;
             };
             // Into this leaf's last pack, or a new one when it is full (or the leaf has none).
-            let plane = (self.plane)(index as usize);
             let put = self.packs.len() > first_pack as usize
                 && self
                     .packs
@@ -618,7 +627,8 @@ impl Accel {
                         }
                     }
                 }
-                for (prim, index) in &self.others[leaf.others.0 as usize..leaf.others.1 as usize] {
+                for (prim, index, _) in &self.others[leaf.others.0 as usize..leaf.others.1 as usize]
+                {
                     if let Some((t, b)) = prim.intersect(o, d, tmin, *tmax) {
                         *tmax = t;
                         best = Some(Hit { t, prim: *index, b });
@@ -749,9 +759,13 @@ impl Accel {
                         }
                     }
                 }
+                // Nor do disks on them.
                 miss = !self.others[leaf.others.0 as usize..leaf.others.1 as usize]
                     .iter()
-                    .any(|(prim, _)| prim.intersect(o, d, tmin, *tmax).is_some());
+                    .any(|(prim, _, plane)| {
+                        (*plane == NO_PLANE || !skip.contains(plane))
+                            && prim.intersect(o, d, tmin, *tmax).is_some()
+                    });
                 !miss
             },
         );

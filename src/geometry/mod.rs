@@ -219,11 +219,7 @@ impl Prim {
             Prim::Disk { inv } => {
                 let q = square_to_uniform_disk_concentric(u);
                 let p = inv.inverse().transform_point3a(Vec3A::new(q.x, q.y, 0.0));
-                (
-                    p,
-                    inv.matrix3.transpose().mul_vec3a(Vec3A::Z).normalize(),
-                    [0.0; 2],
-                )
+                (p, Prim::disk_normal(inv), [0.0; 2])
             }
         }
     }
@@ -263,6 +259,12 @@ impl Prim {
                 (t > tmin && t < tmax && lp.x * lp.x + lp.y * lp.y <= 1.0).then_some((t, [0.0; 2]))
             }
         }
+    }
+
+    /// The unit normal of a disk mapped to the world by the inverse of `inv` (its local +z).
+    #[inline]
+    pub fn disk_normal(inv: &Affine3A) -> Vec3A {
+        inv.matrix3.transpose().mul_vec3a(Vec3A::Z).normalize()
     }
 
     /// Axis-aligned bounds.
@@ -305,10 +307,7 @@ impl Prim {
                 let pos = o + d * hit.t;
                 (pos, (pos - *center).normalize())
             }
-            Prim::Disk { inv } => (
-                o + d * hit.t,
-                inv.matrix3.transpose().mul_vec3a(Vec3A::Z).normalize(),
-            ),
+            Prim::Disk { inv } => (o + d * hit.t, Prim::disk_normal(inv)),
         }
     }
 }

@@ -170,14 +170,18 @@ impl Scene {
         if self.shape_flip[shape] { -1.0 } else { 1.0 }
     }
 
-    /// Whether shape `shape` is a flat sheet shaded by its face normals: triangles in one plane
-    /// (the tree's test, [`Accel::plane_of`]) without vertex normals. No light goes from one of
-    /// its points to another: the direction between them lies in the plane, at a cosine of zero
-    /// to both.
+    /// Whether shape `shape` is a flat sheet of triangles shaded by their face normals: in one
+    /// plane (the tree's test, [`Accel::plane_of`]), without vertex normals. No light goes from
+    /// one of its points to another: the direction between them lies in the plane, at a cosine of
+    /// zero to both. (A disk is planar too, but not taken here: the scan cones outline a sheet
+    /// by its triangles' edges.)
     pub fn is_flat(&self, shape: usize) -> bool {
         let range = self.shapes[shape].prims.clone();
         !range.is_empty()
             && self.accel.plane_of(shape as u32) != NO_PLANE
+            && self.prims[range.clone()]
+                .iter()
+                .all(|p| matches!(p, Prim::Triangle { .. }))
             && self.prim_normals[range].iter().all(Option::is_none)
     }
 
