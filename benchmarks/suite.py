@@ -24,7 +24,9 @@ confocal capture tal wrote (tests/data/tal021, unbounded depth), and the Z's con
 hidden-geometry sampling off (the default of mitransient's plugin and of tal's generator): BSDF sampling from
 the relay wall, whose rays mostly miss the hidden object (in the room, walls meet every one); and
 three of tal's own examples (tal_example): the bunny, confocal and exhaustive, and the plane,
-exhaustive, at 750 bins.
+exhaustive, at 750 bins; and two other hidden objects, confocal: a disk (an analytic primitive,
+not triangles) and the Z in Mitsuba's smooth `plastic` (a delta coating over a diffuse base, so
+no light subpath is shared among scan points).
 mitransient's time is its render call with dr.eval + dr.sync_thread.
 """
 
@@ -146,6 +148,14 @@ def workloads(quick: bool):
                   "to_world": T().translate([0.0, 0.0, 1.0]), "bsdf": {"type": "diffuse", "reflectance": 0.8}}
         return d
 
+    def hidden(d, shape):
+        d["z"] = shape
+        return d
+
+    def plastic(d):
+        d["z"]["bsdf"] = {"type": "plastic", "diffuse_reflectance": {"type": "rgb", "value": [0.5, 0.5, 0.5]}}
+        return d
+
     def bsdf_sampling(d):
         d["integrator"]["nlos_hidden_geometry_sampling"] = False
         return d
@@ -202,6 +212,12 @@ def workloads(quick: bool):
         "mitransient_room_file_bsdf": (lambda: (hgs_off_copy(data / "mitransient" / "transient-nlos" / "nlos-z-room.xml",
                                                              scenes.cache_dir() / "bench_nlos-z-room_hgs_off.xml"),
                                                 max(1, 8192 // div)), "mono"),
+        # Other hidden objects: a disk of radius 0.3 m facing the wall at 0.8 m, albedo 0.5 (a
+        # primitive of its own, not triangles), and the Z in smooth plastic, both confocal.
+        "disk_confocal": (lambda: hidden(z(4096, width=64, height=64, capture_type="confocal"), {
+            "type": "disk", "to_world": T().translate([0.2, 0.1, 0.8]).scale([0.3, 0.3, 0.3]).rotate([1, 0, 0], 180),
+            "bsdf": {"type": "diffuse", "reflectance": 0.5}}), "mono"),
+        "z_plastic_confocal": (lambda: plastic(z(4096, width=64, height=64, capture_type="confocal")), "mono"),
     }
 
 
