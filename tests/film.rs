@@ -180,6 +180,54 @@ fn phasor_frequencies_follow_the_fft_grid_and_put_is_the_fourier_term() {
     }
 }
 
+/// `put` turns one phasor into the next (a run of consecutive FFT frequencies) instead of taking
+/// every sine and cosine: against the Fourier term computed directly, within one f32 rounding, for
+/// near and far optical paths (where a frequency's drift off the grid is computed directly), for
+/// mitransient's `cbox_diffuse_freq.xml` film and for a film whose range wraps to the negative
+/// Nyquist frequency (a second run).
+#[test]
+fn phasor_put_is_the_direct_fourier_term_across_runs_and_far_paths() {
+    use nlos_rs::film::Phasor;
+    use nlos_rs::props::{Props, Value};
+    let film = |mean: f64, sigma: f64, bins: usize, width: f64| {
+        let mut p = Props::new("phasor_hdr_film", None);
+        p.insert("wl_mean", Value::Float(mean)).unwrap();
+        p.insert("wl_sigma", Value::Float(sigma)).unwrap();
+        Phasor::from_props(&p, bins, width).unwrap()
+    };
+    // 40 bins: indices 15..=20, the last the negative Nyquist frequency −20/40.
+    let wrapped = film(40.0 / 19.0, 5.0, 40, 1.0);
+    assert_eq!(wrapped.frequencies.len(), 6);
+    assert!(wrapped.frequencies[5] < 0.0 && wrapped.frequencies[4] > 0.0);
+    let mut rng = Sampler::new(5, 0, 0);
+    for ph in [
+        film(100.0, 100.0, 4000, 1.0),
+        wrapped,
+        film(0.1, 0.1, 300, 0.006),
+    ] {
+        let n = ph.frequencies.len();
+        for scale in [1.0, 100.0, 1e4, 1e6] {
+            for _ in 0..200 {
+                let d = scale * (rng.next_1d() as f64 * 2.0 - 0.5);
+                let v = 0.1 + rng.next_1d() * 3.0;
+                let mut out = vec![0.0f32; 2 * n];
+                ph.put(d, v, &mut out);
+                for (k, f) in ph.frequencies.iter().enumerate() {
+                    let phase = (-std::f64::consts::TAU * f * d).rem_euclid(std::f64::consts::TAU);
+                    let (s, c) = phase.sin_cos();
+                    for (got, want) in [(out[2 * k], v * c as f32), (out[2 * k + 1], v * s as f32)]
+                    {
+                        assert!(
+                            (got - want).abs() <= 1.2e-7 * v,
+                            "d {d} f {f}: {got} against {want}"
+                        );
+                    }
+                }
+            }
+        }
+    }
+}
+
 #[test]
 fn auto_width_weights_conserve_energy_and_the_risk_picks_by_noise() {
     use nlos_rs::film::auto_width::{expected_weights, risks, smoothers};

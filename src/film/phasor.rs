@@ -15,6 +15,11 @@ use crate::props::Props;
 pub struct Phasor {
     /// Frequencies, in cycles per unit optical path (1/m).
     pub frequencies: Vec<f64>,
+    /// The FFT's spacing 1/(n·w), by which consecutive FFT indices' frequencies differ.
+    spacing: f64,
+    /// Per frequency, how far it lies from its run's first frequency plus whole spacings (its and
+    /// the first's rounding to f32); NaN where a run of consecutive FFT indices starts.
+    drift: Vec<f64>,
 }
 
 impl Phasor {
@@ -34,10 +39,20 @@ impl Phasor {
         let hi = ((mean_idx + 3.0 * sigma_idx).ceil() as usize).min(bins / 2);
         // numpy.fft.fftfreq(n, d)[k]: k/(n d) below ⌈n/2⌉, (k − n)/(n d) from there.
         let positive = bins.div_ceil(2);
+        let signed = |k: usize| if k < positive { k as f64 } else { k as f64 - n };
         let frequencies: Vec<f64> = (lo..=hi)
-            .map(|k| {
-                let k = if k < positive { k as f64 } else { k as f64 - n };
-                (k / (n * bin_width)) as f32 as f64
+            .map(|k| (signed(k) / (n * bin_width)) as f32 as f64)
+            .collect();
+        let spacing = 1.0 / (n * bin_width);
+        let mut first = 0;
+        let drift = (lo..=hi)
+            .enumerate()
+            .map(|(j, k)| {
+                if k == lo || signed(k) != signed(k - 1) + 1.0 {
+                    first = j;
+                    return f64::NAN;
+                }
+                frequencies[j] - frequencies[first] - (j - first) as f64 * spacing
             })
             .collect();
         if frequencies.is_empty() || frequencies.len() > 65_536 {
@@ -50,19 +65,54 @@ impl Phasor {
                 ),
             ));
         }
-        Ok(Self { frequencies })
+        Ok(Self {
+            frequencies,
+            spacing,
+            drift,
+        })
     }
 
     /// Add a contribution of value `v` (one channel) at relative optical path `d` to `out`,
     /// laid out as [re, im] per frequency.
+    ///
+    /// The phasors e^{−2πi f d} of a run of consecutive FFT frequencies are one rotation apart,
+    /// e^{−2πi Δ d} for the spacing Δ: each is the one before times that rotation (two sines and
+    /// cosines a contribution instead of one per frequency, which took most of a phasor render's
+    /// time), then turned by the frequency's small drift off the grid (its rounding to f32) from
+    /// the sine's and cosine's Taylor polynomials. Both are exact to about 1e-14, against the
+    /// 6e-8 of the f32 sums; a drift whose turn is not small is computed directly.
     #[inline]
     pub fn put(&self, d: f64, v: f32, out: &mut [f32]) {
-        for (f, re_im) in self.frequencies.iter().zip(out.chunks_exact_mut(2)) {
-            let phase =
-                (-2.0 * std::f64::consts::PI * f * d).rem_euclid(2.0 * std::f64::consts::PI);
-            let (s, c) = phase.sin_cos();
-            re_im[0] += v * c as f32;
-            re_im[1] += v * s as f32;
+        use std::f64::consts::TAU;
+        let turn = |f: f64| (-TAU * f * d).rem_euclid(TAU).sin_cos();
+        let (rs, rc) = turn(self.spacing);
+        let (mut s, mut c) = (0.0, 1.0);
+        for ((&f, &drift), re_im) in self
+            .frequencies
+            .iter()
+            .zip(&self.drift)
+            .zip(out.chunks_exact_mut(2))
+        {
+            let (ps, pc) = if drift.is_nan() {
+                (s, c) = turn(f);
+                (s, c)
+            } else {
+                (s, c) = (s * rc + c * rs, c * rc - s * rs);
+                let a = -TAU * drift * d;
+                if a.abs() < 1e-3 {
+                    // sin a and cos a to a⁵ and a⁴ (truncation below 2e-21).
+                    let a2 = a * a;
+                    let (sa, ca) = (
+                        a * (1.0 - a2 / 6.0 * (1.0 - a2 / 20.0)),
+                        1.0 - a2 / 2.0 * (1.0 - a2 / 12.0),
+                    );
+                    (s * ca + c * sa, c * ca - s * sa)
+                } else {
+                    turn(f)
+                }
+            };
+            re_im[0] += v * pc as f32;
+            re_im[1] += v * ps as f32;
         }
     }
 }
