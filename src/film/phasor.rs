@@ -18,8 +18,8 @@ pub struct Phasor {
     /// The FFT's spacing 1/(n·w), by which consecutive FFT indices' frequencies differ.
     spacing: f64,
     /// Per frequency, how far it lies from its run's first frequency plus whole spacings (its and
-    /// the first's rounding to f32); NaN where a run of consecutive FFT indices starts.
-    drift: Vec<f64>,
+    /// the first's rounding to f32); `None` where a run of consecutive FFT indices starts.
+    drift: Vec<Option<f64>>,
 }
 
 impl Phasor {
@@ -50,9 +50,9 @@ impl Phasor {
             .map(|(j, k)| {
                 if k == lo || signed(k) != signed(k - 1) + 1.0 {
                     first = j;
-                    return f64::NAN;
+                    return None;
                 }
-                frequencies[j] - frequencies[first] - (j - first) as f64 * spacing
+                Some(frequencies[j] - frequencies[first] - (j - first) as f64 * spacing)
             })
             .collect();
         if frequencies.is_empty() || frequencies.len() > 65_536 {
@@ -93,10 +93,7 @@ impl Phasor {
             .zip(&self.drift)
             .zip(out.chunks_exact_mut(2))
         {
-            let (ps, pc) = if drift.is_nan() {
-                (s, c) = turn(f);
-                (s, c)
-            } else {
+            let (ps, pc) = if let Some(drift) = drift {
                 (s, c) = (s * rc + c * rs, c * rc - s * rs);
                 let a = -TAU * drift * d;
                 if a.abs() < 1e-3 {
@@ -110,6 +107,9 @@ impl Phasor {
                 } else {
                     turn(f)
                 }
+            } else {
+                (s, c) = turn(f);
+                (s, c)
             };
             re_im[0] += v * pc as f32;
             re_im[1] += v * ps as f32;
