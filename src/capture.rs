@@ -41,6 +41,7 @@ impl Spot {
             ng: Vec3A::Z,
             ns: Vec3A::Z,
             shape: 0,
+            prim: 0,
         },
         incident: Spectrum::ZERO,
         to_laser: Vec3A::Z,

@@ -262,6 +262,7 @@ fn hgrs_resampled_step_is_unbiased_with_and_without_candidate_roulette() {
                         ng: Vec3A::Z,
                         ns: Vec3A::Z,
                         shape: 0,
+                        prim: 0,
                     },
                     dist: 1.0,
                     weight: Vec3A::splat(w),

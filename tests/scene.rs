@@ -603,6 +603,7 @@ fn scan_cones_keep_every_ray_that_meets_their_sphere() {
             ng: n,
             ns: n,
             shape: 0,
+            prim: 0,
         };
         let center = Vec3A::new(
             r(&mut rng, -2.0, 2.0),
@@ -841,4 +842,115 @@ fn camera_footprint_cones_turn_down_only_rays_that_meet_nothing() {
         "{held} of {first} first vertices within their footprint"
     );
     assert!(hits > 0 && turned_down > held * 40 / 2);
+}
+
+/// The clear views answer as the rays would: a triangle flagged as seen whole from the scan
+/// points (or the laser spots) is unoccluded from each of them, both ways round, at random points
+/// of it; a ray leaving a triangle on a side flagged open meets no hidden geometry, and the test
+/// before the warp agrees with the one after. Scenes: the wall and two rectangles facing it, the
+/// small one in front of part of the big one, plus random rectangles (facing the wall or tilted),
+/// spheres, disks and cubes among them. The small rectangle is seen whole, the big one is not.
+#[test]
+fn clear_views_answer_as_the_rays_do() {
+    use nlos_rs::geometry::{Interaction, Prim};
+    use nlos_rs::integrator::clear_view::ClearView;
+    use nlos_rs::math::Frame;
+    use nlos_rs::sampling::square_to_cosine_hemisphere;
+    let mut rng = Sampler::new(5, 0, 0);
+    let (mut checked, mut open_checked, mut flagged_scenes) = (0u64, 0u64, 0);
+    for case in 0..40 {
+        let mut p = scene_props(vec![], vec![]);
+        let mut r = |lo: f64, hi: f64| lo + (hi - lo) * rng.next_1d() as f64;
+        for k in 0..case % 5 {
+            let c = DVec3::new(r(-1.0, 1.0), r(-1.0, 1.0), r(0.3, 2.0));
+            let turn = DMat4::from_rotation_x(std::f64::consts::PI + r(-1.5, 1.5) * (k % 2) as f64)
+                * DMat4::from_rotation_y(r(-1.0, 1.0) * (k % 2) as f64);
+            let m =
+                DMat4::from_translation(c) * turn * DMat4::from_scale(DVec3::splat(r(0.05, 0.4)));
+            let plugin = ["rectangle", "sphere", "disk", "cube"][(case + k) % 4];
+            p.insert(
+                format!("extra{k}"),
+                obj(plugin, vec![("to_world", Value::Matrix(m))]),
+            )
+            .unwrap();
+        }
+        let scene = load(&p);
+        let hidden = scene.hidden_geometry(false);
+        // Viewpoints on the wall (shape "wall"), as the rays from in front of it find them.
+        let on_wall = |rng: &mut Sampler, half: f32| -> Interaction {
+            let (u, v) = (rng.next_1d() * 2.0 - 1.0, rng.next_1d() * 2.0 - 1.0);
+            let o = Vec3A::new(u * half, v * half, 0.1);
+            scene.intersect(o, -Vec3A::Z, 1.0).expect("the wall").1
+        };
+        let scan: Vec<Interaction> = (0..16).map(|_| on_wall(&mut rng, 0.9)).collect();
+        let spots: Vec<Interaction> = (0..3).map(|_| on_wall(&mut rng, 0.3)).collect();
+        let clear = ClearView::new(&scene, scan.iter(), spots.iter(), hidden);
+        // The base scene's two rectangles: areas 0.16 m² at z = 0.8 and 0.64 m² at z = 1.2.
+        let shape_of = |area: f64, z: f32| {
+            (0..scene.shapes.len())
+                .find(|&s| {
+                    let first = scene.shapes[s].prims.start;
+                    (scene.shapes[s].area - area).abs() < 1e-4
+                        && matches!(scene.prims[first], Prim::Triangle { v, .. } if v.iter().all(|v| (v.z - z).abs() < 1e-5))
+                })
+                .expect("the base rectangles")
+        };
+        let (small, big) = (shape_of(0.16, 0.8), shape_of(0.64, 1.2));
+        let mut flagged = false;
+        for i in 0..scene.prims.len() {
+            let shape = scene.prim_shape[i] as usize;
+            for _ in 0..200 {
+                let (y_p, ng, b) = scene.prims[i].sample_area(rng.next_2d());
+                let y = scene.surface_point(i, y_p, ng, b);
+                for (points, seen) in [
+                    (&scan, clear.seen_from_scan_points(&y)),
+                    (&spots, clear.seen_from_spots(&y)),
+                ] {
+                    if shape == small && case % 5 == 0 {
+                        assert!(seen, "case {case}: the small rectangle in the open");
+                    }
+                    if shape == big {
+                        assert!(
+                            !seen,
+                            "case {case}: the big rectangle is partly behind the small one"
+                        );
+                    }
+                    if seen {
+                        flagged = true;
+                        let w =
+                            &points[(rng.next_1d() * points.len() as f32) as usize % points.len()];
+                        assert!(
+                            scene.visible_to(w, &y) && scene.visible_to(&y, w),
+                            "case {case} prim {i}"
+                        );
+                        checked += 1;
+                    }
+                }
+                // A direction from y: cosine-weighted about either side, as the mixture draws.
+                let n = if rng.next_1d() < 0.5 { y.ng } else { -y.ng };
+                let u = rng.next_2d();
+                let wo = Frame::new(n).to_world(square_to_cosine_hemisphere(u));
+                if clear.misses_hidden_about(&y, n, u) {
+                    assert!(
+                        clear.misses_hidden(&y, wo),
+                        "case {case} prim {i}: before and after the warp"
+                    );
+                }
+                if clear.misses_hidden(&y, wo) {
+                    let hit = scene.intersect(y.offset_origin(wo), wo, f32::INFINITY);
+                    let meets_hidden = hit.is_some_and(|(_, h)| hidden.unwrap().covers(h.shape));
+                    assert!(
+                        !meets_hidden,
+                        "case {case} prim {i}: an open side meets hidden geometry"
+                    );
+                    open_checked += 1;
+                }
+            }
+        }
+        flagged_scenes += flagged as u32;
+    }
+    println!(
+        "{checked} connections, {open_checked} open-side rays, {flagged_scenes} scenes flagged"
+    );
+    assert!(checked > 10_000 && open_checked > 10_000 && flagged_scenes >= 20);
 }

@@ -75,6 +75,8 @@ pub struct Interaction {
     pub ns: Vec3A,
     /// Index of the shape the point lies on.
     pub shape: u32,
+    /// Index of the primitive the point lies on (of `Scene::prims`).
+    pub prim: u32,
 }
 
 impl Interaction {

@@ -59,7 +59,7 @@ impl NlosTracer<'_> {
         if rng.next_1d() < HGS_SHARE {
             return Some((hg.sample(self.scene, rng), true));
         }
-        let hit = self.bsdf_step(x, wi, rng, None)?.next;
+        let hit = self.bsdf_step(x, wi, rng, None, true)?.next;
         hg.covers(hit.shape).then_some((hit, false))
     }
 

@@ -7,6 +7,7 @@
 //! (`render.rs`) only sees the trait; a new integrator is a new file here and a line in
 //! `render::render`.
 
+pub mod clear_view;
 pub mod hgrs;
 pub mod hidden_mixture;
 pub mod nlos;

@@ -8,6 +8,7 @@
 //! instead: hidden-geometry sampling tests visibility, the 50/50 technique choice does not double
 //! the estimate, and the capture's time origin ignores the shutter. See docs/compatibility.md.
 
+use super::clear_view::ClearView;
 use super::scan_cone::{ScanCone, pixel_footprints, scan_cones};
 use super::visibility_guide::Guide;
 use super::{Splat, Step, Tracer, Vertex, hgrs, russian_roulette};
@@ -117,6 +118,9 @@ pub(super) struct ScanSetup {
     covered: Vec<bool>,
     /// The scan points' bounding box (without a camera).
     pub(super) scan_box: Option<[Vec3A; 2]>,
+    /// The triangles the scan points and laser spots see whole, and the sides of each with no
+    /// hidden geometry beyond.
+    pub(super) clear: ClearView,
 }
 
 impl ScanSetup {
@@ -156,7 +160,18 @@ impl ScanSetup {
         if cancel.load(Ordering::Relaxed) {
             return Err(NlosError::Interrupted);
         }
+        let hidden = settings
+            .hidden_geometry_sampling
+            .then(|| scene.hidden_geometry(settings.hgs_includes_relay_wall))
+            .flatten();
+        let clear = ClearView::new(
+            scene,
+            scan_vertices.iter().flatten().map(|v| &v.it),
+            capture.spots.iter().map(|s| &s.it),
+            hidden,
+        );
         Ok(Self {
+            clear,
             scan_cones: scan_cones(scene, bsdfs, &points, pixels),
             scan_box: match nlos.camera {
                 Some(_) => None,
@@ -353,7 +368,7 @@ impl<'a> NlosTracer<'a> {
         let Some(f) = self.bsdf(x).eval(x.ns, wi, w) else {
             return;
         };
-        if !clear && !self.scene.visible_to(x, &spot.it) {
+        if !clear && !self.scan.clear.seen_from_spots(x) && !self.scene.visible_to(x, &spot.it) {
             return;
         }
         let Some(radiance) = self.spot_radiance(spot, w) else {
@@ -417,12 +432,14 @@ impl<'a> NlosTracer<'a> {
         hg: &AreaSampler,
         x: &Interaction,
         wi: Vec3A,
+        from_scan_point: bool,
         rng: &mut Sampler,
     ) -> Option<Step> {
         let y = hg.sample(self.scene, rng);
         let e = self.hidden_edge(x, &y, hg.total_area())?;
         let f = self.bsdf(x).eval(x.ns, wi, e.w)?;
-        if !self.scene.visible_to(x, &y) {
+        let seen_whole = from_scan_point && self.scan.clear.seen_from_scan_points(&y);
+        if !seen_whole && !self.scene.visible_to(x, &y) {
             return None;
         }
         Some(Step {
@@ -434,7 +451,8 @@ impl<'a> NlosTracer<'a> {
     }
 
     /// BSDF sampling from `x`: the next vertex is what the sampled direction hits. From a scan
-    /// point with a cone, a direction outside it ends the step untraced (it would meet nothing).
+    /// point with a cone, a direction outside it ends the step untraced (it would meet nothing);
+    /// so does one that surely misses the hidden geometry when only that is kept (`hidden_only`).
     #[inline(always)]
     pub(super) fn bsdf_step(
         &self,
@@ -442,6 +460,7 @@ impl<'a> NlosTracer<'a> {
         wi: Vec3A,
         rng: &mut Sampler,
         cone: Option<&ScanCone>,
+        hidden_only: bool,
     ) -> Option<Step> {
         let s = match cone {
             Some(c) => {
@@ -456,8 +475,15 @@ impl<'a> NlosTracer<'a> {
                 }
                 s
             }
+            // Before its warp, where the square sample already tells.
+            None if hidden_only => self.bsdf(x).sample_where(x.ns, wi, rng, |n, u| {
+                !self.scan.clear.misses_hidden_about(x, n, u)
+            })?,
             None => self.bsdf(x).sample(x.ns, wi, rng)?,
         };
+        if hidden_only && self.scan.clear.misses_hidden(x, s.wo) {
+            return None;
+        }
         let (_, hit) = self
             .scene
             .intersect(x.offset_origin(s.wo), s.wo, f32::INFINITY)?;
@@ -750,16 +776,18 @@ impl NlosTracer<'_> {
             // mixture is too (mitransient also divides by 1/2 here and doubles the result).
             hidden = hidden.filter(|_| rng.next_1d() < 0.5);
         }
+        // A scan point's shadow rays to the triangles it sees whole are answered without tracing.
+        let from_scan_point = depth == 0 && self.camera.is_none();
         let step = match (hidden, st.hgrs) {
-            (Some(hg), Some(h)) => {
-                hgrs::sample(h, rng, |rng| self.hidden_candidate(hg, &v.it, v.wi, rng))
-            }
+            (Some(hg), Some(h)) => hgrs::sample(h, rng, |rng| {
+                self.hidden_candidate(hg, &v.it, v.wi, from_scan_point, rng)
+            }),
             // Beyond the first vertex (on the relay wall, whence the hidden scene is far and
             // small) the mixture with BSDF sampling, unless the technique roulette chose.
             (Some(hg), None) if depth > 0 && !st.hgs_rroulette => {
                 self.mixture_step(hg, &v.it, v.wi, false, rng)
             }
-            (Some(hg), None) => self.hidden_candidate(hg, &v.it, v.wi, rng),
+            (Some(hg), None) => self.hidden_candidate(hg, &v.it, v.wi, from_scan_point, rng),
             (None, _) => {
                 let cone = if depth == 0 {
                     self.scan
@@ -770,7 +798,7 @@ impl NlosTracer<'_> {
                 } else {
                     None
                 };
-                self.bsdf_step(&v.it, v.wi, rng, cone)
+                self.bsdf_step(&v.it, v.wi, rng, cone, false)
             }
         };
         let Some(step) = step else { return false };

@@ -150,7 +150,9 @@ impl NlosTracer<'_> {
                 let r = r2.sqrt();
                 let w = u / r;
                 let cos_z = spot.it.ns.dot(-w);
-                if cos_z <= 0.0 || !self.scene.visible_to(&y, &spot.it) {
+                if cos_z <= 0.0
+                    || !(self.scan.clear.seen_from_spots(&y) || self.scene.visible_to(&y, &spot.it))
+                {
                     return None;
                 }
                 Some(Step {
@@ -320,7 +322,10 @@ impl NlosTracer<'_> {
 
     /// Laser spot `spot` lighting the first vertex `y` of a subpath that goes on along `out`: the
     /// terms [`Self::connect_spot`] adds at a vertex, but for every spot of the subpath; its shadow
-    /// ray only if `test_visibility` (else the caller casts it).
+    /// ray only if `test_visibility` (else the caller casts it). Always inlined: its callers
+    /// settle `test_visibility`, and called out of line it ran the flat letter's confocal
+    /// capture 0.94× as fast.
+    #[inline(always)]
     fn spot_link(
         &self,
         y: &Interaction,
@@ -336,7 +341,11 @@ impl NlosTracer<'_> {
         let r = r2.sqrt();
         let w = u / r;
         let cos_z = spot.it.ns.dot(-w);
-        if cos_z <= 0.0 || (test_visibility && !self.scene.visible_to(y, &spot.it)) {
+        if cos_z <= 0.0
+            || (test_visibility
+                && !self.scan.clear.seen_from_spots(y)
+                && !self.scene.visible_to(y, &spot.it))
+        {
             return None;
         }
         let source = self.spot_radiance(spot, w)? * (cos_z / r2);
@@ -438,8 +447,12 @@ impl NlosTracer<'_> {
                     return;
                 };
                 let mut seen = (!same).then_some(true);
-                let mut link_visible =
-                    || *seen.get_or_insert_with(|| self.scene.visible_to(&x.it, &free.first));
+                let mut link_visible = || {
+                    *seen.get_or_insert_with(|| {
+                        self.scan.clear.seen_from_scan_points(&free.first)
+                            || self.scene.visible_to(&x.it, &free.first)
+                    })
+                };
                 for v in &light.vertices {
                     let spots = Spots::Confocal(link, &mut link_visible);
                     self.connect_scan_point(x, v, area, spots, out);
@@ -482,11 +495,14 @@ impl NlosTracer<'_> {
         };
         let head = x.beta * f_x * (e.cos_y / e.r2);
         let opl = x.opl + e.r as f64 + v.opl;
+        // The shadow ray x → v, unless every scan point sees v's triangle whole.
+        let visible =
+            || self.scan.clear.seen_from_scan_points(&v.it) || self.scene.visible_to(&x.it, &v.it);
         match spots {
             // A single capture: the spot is in v's weight.
             Spots::InWeight => {
                 if let Some(f_v) = f_v
-                    && self.scene.visible_to(&x.it, &v.it)
+                    && visible()
                 {
                     out(Splat {
                         slot: 0,
@@ -496,7 +512,7 @@ impl NlosTracer<'_> {
                 }
             }
             Spots::Linked(links) => {
-                if !self.scene.visible_to(&x.it, &v.it) {
+                if !visible() {
                     return;
                 }
                 for link in links {
@@ -515,7 +531,7 @@ impl NlosTracer<'_> {
                 let Some(value) = linked_value(self.bsdf(&v.it), v, &e, head, f_v, &link) else {
                     return;
                 };
-                if !link_visible() || (f_v.is_some() && !self.scene.visible_to(&x.it, &v.it)) {
+                if !link_visible() || (f_v.is_some() && !visible()) {
                     return;
                 }
                 out(Splat {

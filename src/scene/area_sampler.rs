@@ -117,6 +117,7 @@ impl AreaSampler {
             ng,
             ns: ng,
             shape: e.v1[3].to_bits(),
+            prim: e.v0[3].to_bits(),
         };
         (it, k)
     }

@@ -214,6 +214,7 @@ impl Scene {
             ng: ng * s,
             ns: ns * s,
             shape,
+            prim: i as u32,
         }
     }
 

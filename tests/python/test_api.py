@@ -181,8 +181,13 @@ def test_gil_is_released():
     assert len(ticks) > 20
 
 
-def test_progress_bar(capsys):
-    nlos_rs.render(nlos_rs.scenes.z_nlos_1corner(width=32, height=32, spp=1 << 16), progress=True)
+def test_progress_bar(capsys, monkeypatch):
+    # The bar appears once a render has run for a second: a clock that runs ten seconds a reading
+    # makes that so whatever the machine's speed (a render timed to last a second stopped
+    # showing one when renders got faster).
+    clock = iter(range(0, 1 << 30, 10))
+    monkeypatch.setattr(nlos_rs.time, "monotonic", lambda: float(next(clock)))
+    nlos_rs.render(nlos_rs.scenes.z_nlos_1corner(width=32, height=32, spp=1 << 14), progress=True)
     assert "nlos_rs" in capsys.readouterr().err
 
 
