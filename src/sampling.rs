@@ -283,10 +283,51 @@ pub fn square_to_uniform_triangle(u: Vec2) -> Vec2 {
 /// own index with probability `keep[i]` or takes its alias.
 #[derive(Clone, Debug, Default)]
 pub struct Discrete {
-    /// Per bucket: the probability of keeping its own index, and its alias (one cache line).
-    buckets: Vec<(f32, u32)>,
+    buckets: Vec<Bucket>,
     pmf: Vec<f64>,
     total: f64,
+}
+
+/// A bucket of the alias table: the probability of keeping its own index, its alias, and the
+/// reciprocals of that probability and of its complement, by which what is left of a draw is
+/// rescaled ([`quotient`]).
+#[derive(Clone, Copy, Debug)]
+struct Bucket {
+    keep: f32,
+    alias: u32,
+    inv_keep: f64,
+    inv_pass: f64,
+}
+
+/// The f32 of the f64 quotient `num / den`, by a multiplication with `inv` = 1/den: the product
+/// is within two f64 rounding steps of the quotient, so it gives the same f32 unless an f32
+/// rounding boundary lies that close to it, where the division is done. (Two divisions sat on
+/// the path of every area draw: a single scan point rendered 1.04× as fast without them.)
+#[inline(always)]
+pub fn quotient(num: f64, den: f64, inv: f64) -> f32 {
+    let q = num * inv;
+    let f = q as f32;
+    // The f32 boundary on q's side of f: halfway to the neighbour (exact in f64; NaN for f = 0
+    // = q, where nothing is ambiguous).
+    let next = f32::from_bits(if (f as f64) < q {
+        f.to_bits() + 1
+    } else {
+        f.to_bits().wrapping_sub(1)
+    });
+    let boundary = (f as f64 + next as f64) * 0.5;
+    if (q - boundary).abs() <= q * 1e-15 {
+        divided(num, den)
+    } else {
+        f
+    }
+}
+
+/// [`quotient`]'s rare case, out of the way of the common one (inlined, it ran the line-of-sight
+/// Cornell box 0.87× as fast).
+#[cold]
+#[inline(never)]
+fn divided(num: f64, den: f64) -> f32 {
+    (num / den) as f32
 }
 
 impl Discrete {
@@ -319,7 +360,16 @@ impl Discrete {
             }
         }
         Some(Self {
-            buckets: keep.into_iter().zip(alias).collect(),
+            buckets: keep
+                .into_iter()
+                .zip(alias)
+                .map(|(keep, alias)| Bucket {
+                    keep,
+                    alias,
+                    inv_keep: 1.0 / keep as f64,
+                    inv_pass: 1.0 / (1.0 - keep as f64),
+                })
+                .collect(),
             pmf,
             total,
         })
@@ -341,13 +391,13 @@ impl Discrete {
         let scaled = x as u64 * self.buckets.len() as u64;
         let bucket = (scaled >> 32) as usize;
         let r = (scaled & 0xffff_ffff) as f64 * (1.0 / 4_294_967_296.0);
-        let (keep, alias) = self.buckets[bucket];
-        let keep = keep as f64;
+        let b = self.buckets[bucket];
+        let keep = b.keep as f64;
         let (i, rest) = if r < keep {
-            (bucket, r / keep)
+            (bucket, quotient(r, keep, b.inv_keep))
         } else {
-            (alias as usize, (r - keep) / (1.0 - keep))
+            (b.alias as usize, quotient(r - keep, 1.0 - keep, b.inv_pass))
         };
-        (i, (rest as f32).min(ONE_MINUS_EPSILON))
+        (i, rest.min(ONE_MINUS_EPSILON))
     }
 }

@@ -286,3 +286,61 @@ fn hgrs_resampled_step_is_unbiased_with_and_without_candidate_roulette() {
         assert!(roulette == 1.0 || (drawn as f64) < 5.5 * n as f64);
     }
 }
+
+/// The alias table's rescaling by a reciprocal gives the f32 of the f64 division bit for bit:
+/// over random draws and bucket probabilities (3/4, 1/3 and 5/8 among them, whose quotients
+/// land exactly on f32 rounding boundaries), in both branches of a bucket, and for quotients
+/// within an f64 rounding of a boundary, where the product alone would differ (it fails
+/// without the division there; checked).
+#[test]
+fn quotient_by_a_reciprocal_is_the_division() {
+    let mut rng = Sampler::new(9, 0, 0);
+    let mut keeps: Vec<f32> = vec![0.75, 1.0 / 3.0, 0.625, 0.999_999_9, 1e-6, 0.5, 0.1];
+    keeps.extend((0..200).map(|_| rng.next_1d().max(1e-7)));
+    let (mut checked, mut ties) = (0u64, 0u64);
+    for &keep in &keeps {
+        let keep = keep as f64;
+        for _ in 0..20_000 {
+            let r = rng.next_u32() as f64 * (1.0 / 4_294_967_296.0);
+            let (num, den) = if r < keep {
+                (r, keep)
+            } else {
+                (r - keep, 1.0 - keep)
+            };
+            let exact = (num / den) as f32;
+            assert_eq!(
+                quotient(num, den, 1.0 / den).to_bits(),
+                exact.to_bits(),
+                "{num} / {den}"
+            );
+            // A quotient on an f32 boundary (halfway between two f32): the product's rounding
+            // alone could go either way.
+            let d = num / den;
+            let f = d as f32;
+            let other = f32::from_bits(if (f as f64) < d {
+                f.to_bits() + 1
+            } else {
+                f.to_bits() - 1
+            });
+            ties += u64::from(d == (f as f64 + other as f64) * 0.5);
+            checked += 1;
+        }
+    }
+    // Quotients within an f64 rounding of a boundary, where the product and the division can
+    // fall on its two sides: numerators made as boundary × denominator.
+    for _ in 0..200_000 {
+        let f = rng.next_1d().max(1e-7);
+        let boundary = (f as f64 + f32::from_bits(f.to_bits() + 1) as f64) * 0.5;
+        let den = (rng.next_1d() as f64).max(1e-7);
+        let num = boundary * den;
+        let exact = (num / den) as f32;
+        assert_eq!(
+            quotient(num, den, 1.0 / den).to_bits(),
+            exact.to_bits(),
+            "{num} / {den}"
+        );
+        checked += 1;
+    }
+    println!("{checked} quotients, {ties} on a boundary");
+    assert!(checked > 4_000_000 && ties > 100);
+}
