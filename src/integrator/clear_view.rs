@@ -25,6 +25,7 @@
 
 use crate::geometry::{Interaction, Prim, bvh::NO_PLANE};
 use crate::math::{RAY_EPS, SHADOW_EPS};
+use crate::parallel::map_indices;
 use crate::scene::{AreaSampler, Scene};
 use glam::{DVec3, Vec2, Vec3A};
 
@@ -159,62 +160,64 @@ impl ClearView {
         }
         let e = 5e-7 * (1.0 + c);
         let margin = 5.0 * e / SHADOW_EPS as f64;
-        let flags = (0..prims.len())
-            .map(|i| {
-                let Prim::Triangle { v, .. } = &prims[i] else {
-                    return 0;
-                };
-                let [a, b, c] = v.map(|v| v.as_dvec3());
-                // The plane, oriented as the interactions' normal (flip_normals included).
-                let shape = scene.prim_shape[i];
-                let n = (b - a).cross(c - a).normalize_or_zero()
-                    * scene.normal_sign(shape as usize) as f64;
-                if n == DVec3::ZERO {
-                    return 0;
+        // Each face on its own (spread over the render's threads): 14 ms for 968 triangles on one.
+        let flags = map_indices(prims.len(), |i| {
+            let Prim::Triangle { v, .. } = &prims[i] else {
+                return 0;
+            };
+            let [a, b, c] = v.map(|v| v.as_dvec3());
+            // The plane, oriented as the interactions' normal (flip_normals included).
+            let shape = scene.prim_shape[i];
+            let n =
+                (b - a).cross(c - a).normalize_or_zero() * scene.normal_sign(shape as usize) as f64;
+            if n == DVec3::ZERO {
+                return 0;
+            }
+            let d = n.dot(a);
+            let sides = [&scan, &spots].map(|v| v.as_ref().and_then(|v| v.side(n, d, margin)));
+            // How far past the plane, on each side, the primitives of each set reach; the
+            // scan stops once no flag can be set.
+            let mut past = Past::default();
+            let open = |past: &Past| {
+                (0..2).any(|k| sides[k].is_some_and(|s| past.tested[k][s] <= e))
+                    || (hidden.is_some() && past.hidden.iter().any(|&h| h <= e))
+            };
+            for (j, p) in prims.iter().enumerate() {
+                if !open(&past) {
+                    break;
                 }
-                let d = n.dot(a);
-                // How far past the plane, on each side, the primitives of each set reach.
-                let mut past = Past::default();
-                for (j, p) in prims.iter().enumerate() {
-                    if j == i {
-                        continue;
-                    }
-                    let (lo, hi) = extent(p, n, d);
-                    let key = scene.accel.plane_of(scene.prim_shape[j]);
-                    for (k, v) in [&scan, &spots].into_iter().enumerate() {
-                        if v.as_ref()
-                            .is_some_and(|v| v.key == NO_PLANE || v.key != key)
-                        {
-                            past.tested[k] =
-                                [past.tested[k][0].max(hi), past.tested[k][1].max(-lo)];
-                        }
-                    }
-                    if hidden.is_some_and(|h| h.covers(scene.prim_shape[j])) {
-                        past.hidden = [past.hidden[0].max(hi), past.hidden[1].max(-lo)];
-                    }
+                if j == i {
+                    continue;
                 }
-                let mut f = 0;
-                for (k, (v, bit)) in [(&scan, FROM_SCAN), (&spots, FROM_SPOTS)]
-                    .into_iter()
-                    .enumerate()
-                {
-                    if let Some(s) = v.as_ref().and_then(|v| v.side(n, d, margin))
-                        && past.tested[k][s] <= e
+                let (lo, hi) = extent(p, n, d);
+                let key = scene.accel.plane_of(scene.prim_shape[j]);
+                for (k, v) in [&scan, &spots].into_iter().enumerate() {
+                    if v.as_ref()
+                        .is_some_and(|v| v.key == NO_PLANE || v.key != key)
                     {
-                        f |= bit;
+                        past.tested[k] = [past.tested[k][0].max(hi), past.tested[k][1].max(-lo)];
                     }
                 }
-                if hidden.is_some() {
-                    if past.hidden[0] <= e {
-                        f |= OPEN_FRONT;
-                    }
-                    if past.hidden[1] <= e {
-                        f |= OPEN_BACK;
-                    }
+                if hidden.is_some_and(|h| h.covers(scene.prim_shape[j])) {
+                    past.hidden = [past.hidden[0].max(hi), past.hidden[1].max(-lo)];
                 }
-                f
-            })
-            .collect();
+            }
+            let mut f = 0;
+            for (k, bit) in [FROM_SCAN, FROM_SPOTS].into_iter().enumerate() {
+                if sides[k].is_some_and(|s| past.tested[k][s] <= e) {
+                    f |= bit;
+                }
+            }
+            if hidden.is_some() {
+                if past.hidden[0] <= e {
+                    f |= OPEN_FRONT;
+                }
+                if past.hidden[1] <= e {
+                    f |= OPEN_BACK;
+                }
+            }
+            f
+        });
         Self { flags }
     }
 
