@@ -1,8 +1,9 @@
 //! Integrators: how one path sample of a pixel is traced and what it contributes. Each is a
 //! [`Tracer`]: `transient_nlos_path(_rs)` is [`NlosTracer`] (with Hidden Geometry Rejection
 //! Sampling in [`hgrs`], the mixture of hidden-geometry and BSDF sampling at hidden vertices in
-//! [`hidden_mixture`], sample reuse across scan points in [`sample_reuse`] and the directions
-//! from a scan point that may meet anything in [`scan_cone`]), `transient_path`
+//! [`hidden_mixture`], sample reuse across scan points in [`sample_reuse`], the directions
+//! from a scan point that may meet anything in [`scan_cone`] and the shadow rays and traces
+//! answered without tracing in [`clear_view`]), `transient_path`
 //! is [`PathTracer`]. The render loop
 //! (`render.rs`) only sees the trait; a new integrator is a new file here and a line in
 //! `render::render`.
