@@ -368,7 +368,7 @@ impl<'a> NlosTracer<'a> {
         let Some(f) = self.bsdf(x).eval(x.ns, wi, w) else {
             return;
         };
-        if !clear && !self.scan.clear.seen_from_spots(x) && !self.scene.visible_to(x, &spot.it) {
+        if !clear && !self.sees_spot(x, &spot.it) {
             return;
         }
         let Some(radiance) = self.spot_radiance(spot, w) else {
@@ -423,6 +423,20 @@ impl<'a> NlosTracer<'a> {
         });
     }
 
+    /// Whether the point `y` and the laser spot `spot` see each other: no shadow ray where every
+    /// spot sees `y`'s triangle whole ([`ClearView`]).
+    #[inline(always)]
+    pub(super) fn sees_spot(&self, y: &Interaction, spot: &Interaction) -> bool {
+        self.scan.clear.seen_from_spots(y) || self.scene.visible_to(y, spot)
+    }
+
+    /// Whether the scan point `x` and the point `y` see each other: no shadow ray where every scan
+    /// point sees `y`'s triangle whole ([`ClearView`]).
+    #[inline(always)]
+    pub(super) fn sees_scan_point(&self, x: &Interaction, y: &Interaction) -> bool {
+        self.scan.clear.seen_from_scan_points(y) || self.scene.visible_to(x, y)
+    }
+
     /// One hidden-geometry draw from `x` (mitransient-model §3.3) with the visibility test
     /// mitransient lacks: an invalid or occluded draw is a zero-valued sample of the area integral.
     /// The weight is f·A_total·cosθ_y/r².
@@ -438,8 +452,12 @@ impl<'a> NlosTracer<'a> {
         let y = hg.sample(self.scene, rng);
         let e = self.hidden_edge(x, &y, hg.total_area())?;
         let f = self.bsdf(x).eval(x.ns, wi, e.w)?;
-        let seen_whole = from_scan_point && self.scan.clear.seen_from_scan_points(&y);
-        if !seen_whole && !self.scene.visible_to(x, &y) {
+        let visible = if from_scan_point {
+            self.sees_scan_point(x, &y)
+        } else {
+            self.scene.visible_to(x, &y)
+        };
+        if !visible {
             return None;
         }
         Some(Step {

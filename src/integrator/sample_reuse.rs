@@ -150,9 +150,7 @@ impl NlosTracer<'_> {
                 let r = r2.sqrt();
                 let w = u / r;
                 let cos_z = spot.it.ns.dot(-w);
-                if cos_z <= 0.0
-                    || !(self.scan.clear.seen_from_spots(&y) || self.scene.visible_to(&y, &spot.it))
-                {
+                if cos_z <= 0.0 || !self.sees_spot(&y, &spot.it) {
                     return None;
                 }
                 Some(Step {
@@ -341,11 +339,7 @@ impl NlosTracer<'_> {
         let r = r2.sqrt();
         let w = u / r;
         let cos_z = spot.it.ns.dot(-w);
-        if cos_z <= 0.0
-            || (test_visibility
-                && !self.scan.clear.seen_from_spots(y)
-                && !self.scene.visible_to(y, &spot.it))
-        {
+        if cos_z <= 0.0 || (test_visibility && !self.sees_spot(y, &spot.it)) {
             return None;
         }
         let source = self.spot_radiance(spot, w)? * (cos_z / r2);
@@ -447,12 +441,8 @@ impl NlosTracer<'_> {
                     return;
                 };
                 let mut seen = (!same).then_some(true);
-                let mut link_visible = || {
-                    *seen.get_or_insert_with(|| {
-                        self.scan.clear.seen_from_scan_points(&free.first)
-                            || self.scene.visible_to(&x.it, &free.first)
-                    })
-                };
+                let mut link_visible =
+                    || *seen.get_or_insert_with(|| self.sees_scan_point(&x.it, &free.first));
                 for v in &light.vertices {
                     let spots = Spots::Confocal(link, &mut link_visible);
                     self.connect_scan_point(x, v, area, spots, out);
@@ -495,14 +485,11 @@ impl NlosTracer<'_> {
         };
         let head = x.beta * f_x * (e.cos_y / e.r2);
         let opl = x.opl + e.r as f64 + v.opl;
-        // The shadow ray x → v, unless every scan point sees v's triangle whole.
-        let visible =
-            || self.scan.clear.seen_from_scan_points(&v.it) || self.scene.visible_to(&x.it, &v.it);
         match spots {
             // A single capture: the spot is in v's weight.
             Spots::InWeight => {
                 if let Some(f_v) = f_v
-                    && visible()
+                    && self.sees_scan_point(&x.it, &v.it)
                 {
                     out(Splat {
                         slot: 0,
@@ -512,7 +499,7 @@ impl NlosTracer<'_> {
                 }
             }
             Spots::Linked(links) => {
-                if !visible() {
+                if !self.sees_scan_point(&x.it, &v.it) {
                     return;
                 }
                 for link in links {
@@ -531,7 +518,7 @@ impl NlosTracer<'_> {
                 let Some(value) = linked_value(self.bsdf(&v.it), v, &e, head, f_v, &link) else {
                     return;
                 };
-                if !link_visible() || (f_v.is_some() && !visible()) {
+                if !link_visible() || (f_v.is_some() && !self.sees_scan_point(&x.it, &v.it)) {
                     return;
                 }
                 out(Splat {
