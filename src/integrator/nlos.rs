@@ -607,13 +607,21 @@ impl<'a> NlosTracer<'a> {
             .is_some_and(|f| depth + 1 + self.depth_offset() > f)
     }
 
+    /// The hidden geometry the next vertex at loop depth `depth` must lie on: with
+    /// hidden-geometry sampling on, up to `hgs_max_depth`; `None` beyond (or with it off), where
+    /// BSDF sampling keeps whatever its ray hits.
+    #[inline(always)]
+    fn hidden_at(&self, depth: u32) -> Option<&AreaSampler> {
+        self.hidden
+            .filter(|_| self.settings.hgs_max_depth.is_none_or(|m| depth < m))
+    }
+
     /// The hidden geometry that draws the next vertex at loop depth `depth` (plain or HGRS), or
     /// `None` for BSDF sampling: none where some BSDF component is a delta (a draw towards hidden
     /// geometry would miss it) or beyond `hgs_max_depth`.
     #[inline(always)]
     fn hidden_technique(&self, depth: u32, some_delta: bool) -> Option<&AreaSampler> {
-        self.hidden
-            .filter(|_| !some_delta && self.settings.hgs_max_depth.is_none_or(|m| depth < m))
+        self.hidden_at(depth).filter(|_| !some_delta)
     }
 
     /// [`Self::first_vertex`] with a camera (out of line: the scan points' case stays small
@@ -787,8 +795,14 @@ impl NlosTracer<'_> {
         if self.ends_after_connecting(depth) {
             return false;
         }
-        // ---- Direction sampling: hidden geometry (plain or HGRS) or the BSDF
+        // ---- Direction sampling: hidden geometry (plain or HGRS) or the BSDF. Where some BSDF
+        // component is a delta, a draw towards hidden geometry would miss it: the BSDF draws
+        // instead and keeps its hit only on the hidden geometry in force (`keep_hidden`), so that
+        // every vertex after the first lies there whatever the BSDF, as hidden-geometry sampling
+        // defines the integral (mitransient-model §3.3). (The technique roulette's BSDF draws
+        // keep any hit, as mitransient's do.)
         let mut hidden = self.hidden_technique(depth, some_delta);
+        let keep_hidden = self.hidden_at(depth).filter(|_| some_delta);
         if hidden.is_some() && st.hgs_rroulette {
             // One of the two techniques at random; each is unbiased on its own, so the
             // mixture is too (mitransient also divides by 1/2 here and doubles the result).
@@ -816,7 +830,8 @@ impl NlosTracer<'_> {
                 } else {
                     None
                 };
-                self.bsdf_step(&v.it, v.wi, rng, cone, false)
+                self.bsdf_step(&v.it, v.wi, rng, cone, keep_hidden.is_some())
+                    .filter(|s| keep_hidden.is_none_or(|hg| hg.covers(s.next.shape)))
             }
         };
         let Some(step) = step else { return false };
