@@ -772,19 +772,15 @@ fn mitransient_camera_file() -> (Scene, nlos_rs::sensor::Camera) {
     (scene, camera)
 }
 
-/// mitransient's camera file: every ray of a pixel counted as covered meets that pixel's sole
-/// shape, the flat relay wall — its corner, edge and centre rays and random ones — while the
-/// film holds pixels only some of whose rays meet it (past the wall's edges).
-#[test]
-fn covered_camera_pixels_meet_their_wall_with_every_ray() {
+/// Every ray of a pixel counted as covered meets that pixel's sole shape — its corner, edge and
+/// centre rays and random ones; the covered pixels, and the pixels with a sole shape that only
+/// some of their rays meet.
+fn check_covered_pixels(scene: &Scene, camera: &nlos_rs::sensor::Camera) -> (usize, usize) {
     use nlos_rs::integrator::scan_cone::pixel_footprints;
     use nlos_rs::sampling::ONE_MINUS_EPSILON;
     use std::sync::atomic::AtomicBool;
-    let (scene, camera) = mitransient_camera_file();
-    // The relay wall (Plane.ply) is a flat sheet, the Z is not.
-    assert!(scene.is_flat(0) && !scene.is_flat(1));
     let (w, h) = (scene.meter.film.width, scene.meter.film.height);
-    let seen_by = pixel_footprints(&scene, &camera, &AtomicBool::new(false), 0..usize::MAX);
+    let seen_by = pixel_footprints(scene, camera, &AtomicBool::new(false), 0..usize::MAX);
     let mut rng = Sampler::new(7, 0, 0);
     let edge = [0.0, 0.5, ONE_MINUS_EPSILON];
     let (mut covered, mut partly) = (0, 0);
@@ -812,7 +808,68 @@ fn covered_camera_pixels_meet_their_wall_with_every_ray() {
         }
     }
     println!("covered {covered}, partly {partly} of {}", w * h);
-    assert!(covered > w * h / 2 && partly > 0);
+    (covered, partly)
+}
+
+/// mitransient's camera file: the film holds covered pixels, and pixels only some of whose rays
+/// meet the relay wall (past its edges).
+#[test]
+fn covered_camera_pixels_meet_their_wall_with_every_ray() {
+    let (scene, camera) = mitransient_camera_file();
+    // The relay wall (Plane.ply) is a flat sheet, the Z is not.
+    assert!(scene.is_flat(0) && !scene.is_flat(1));
+    let (covered, partly) = check_covered_pixels(&scene, &camera);
+    let pixels = scene.meter.film.width * scene.meter.film.height;
+    assert!(covered > pixels / 2 && partly > 0);
+}
+
+/// mitransient's room (the camera inside walls that surround it, so no sphere around the rest of
+/// the scene leaves it outside): the pixels whose rays nothing else can meet on their way to the
+/// relay wall are covered; with a small panel halfway between the camera and the wall, the pixels
+/// whose rays may meet it are not.
+#[test]
+fn camera_pixels_in_a_room_meet_their_wall_with_every_ray() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/data/mitransient/transient-nlos/nlos-z-room.xml");
+    let mut props = nlos_rs::xml::load(&path, &Default::default()).expect("mitransient's file");
+    let room = |props: &Props| {
+        let scene =
+            Scene::from_props(props, path.parent().expect("a folder")).expect("valid scene");
+        let camera = scene
+            .nlos()
+            .expect("NLOS")
+            .camera
+            .clone()
+            .expect("a camera");
+        (scene, camera)
+    };
+    let (scene, camera) = room(&props);
+    let pixels = scene.meter.film.width * scene.meter.film.height;
+    let (covered, _) = check_covered_pixels(&scene, &camera);
+    assert!(covered > pixels / 2);
+    // The panel, 0.1 m wide, halfway along the central pixel's ray.
+    let r = camera.pixel_ray(
+        scene.meter.film.width * (scene.meter.film.height / 2) + scene.meter.film.width / 2,
+        scene.meter.film.width,
+        scene.meter.film.height,
+        Vec2::splat(0.5),
+    );
+    let hit = scene
+        .accel
+        .intersect(r.o, r.d, r.tmin, r.tmax)
+        .expect("the wall");
+    let mid = r.o + r.d * (0.5 * hit.t);
+    let m = DMat4::from_translation(DVec3::new(mid.x as f64, mid.y as f64, mid.z as f64))
+        * DMat4::from_scale(DVec3::splat(0.05));
+    props
+        .insert(
+            "panel",
+            obj("rectangle", vec![("to_world", Value::Matrix(m))]),
+        )
+        .unwrap();
+    let (scene, camera) = room(&props);
+    let (behind_panel, _) = check_covered_pixels(&scene, &camera);
+    assert!(behind_panel > pixels / 4 && behind_panel < covered);
 }
 
 /// mitransient's camera file: every pixel that sees the relay wall gets a footprint cone, which

@@ -19,7 +19,8 @@
 //! With a camera as the sensor a pixel's first vertices spread over its footprint on the wall:
 //! its cone is made from the central ray's point with the sphere widened by the footprint's reach
 //! ([`pixel_footprints`]), and holds for a first vertex on that shape within it. Where the cone of
-//! a pixel's own rays passes outside the sphere, the camera ray can meet the wall alone
+//! a pixel's own rays passes outside the sphere (or, for a camera inside a room, where nothing
+//! else enters the pyramid of its rays up to the wall), the camera ray can meet the wall alone
 //! ([`Footprints::sole_shapes`]), and where moreover the wall is a flat sheet whose outline lies
 //! clear of the pixel's footprint, every one of its rays meets it ([`Footprints::covered`]): a
 //! path's first direction can then be judged before its camera ray is traced.
@@ -204,8 +205,10 @@ pub struct Footprints {
     /// rays meet its plane (any ray through the pixel meets that plane within it; a path whose
     /// first vertex lies farther, or elsewhere, leaves without a cone).
     pub points: Vec<Option<(Interaction, Vec3A, f32)>>,
-    /// Per pixel, the one shape (of at most `MAX_WALL_PRIMS` primitives) its rays can meet,
-    /// where the pixel's rays all pass outside the sphere around the rest of the scene.
+    /// Per pixel, the one shape (of at most `MAX_WALL_PRIMS` primitives) its rays can meet:
+    /// where the pixel's rays all pass outside the sphere around the rest of the scene, or where
+    /// they all end on that flat shape and no other primitive enters their pyramid
+    /// ([`pyramid_clear`]: a camera inside a room).
     pub sole_shapes: Vec<Option<u32>>,
     /// Per pixel with a sole shape, whether every one of its rays meets that shape: a flat sheet
     /// ([`Scene::is_flat`]) whose outline lies clear of the pixel's footprint, within the
@@ -231,6 +234,7 @@ pub fn pixel_footprints(
         .collect();
     let mut spheres = Spheres::default();
     let mut outlines: Vec<(u32, Option<Vec<[Vec3A; 2]>>)> = Vec::new();
+    let mut in_rooms = Vec::new();
     let (mut points, mut sole_shapes, mut covered) = (
         Vec::with_capacity(w * h),
         Vec::with_capacity(w * h),
@@ -274,32 +278,54 @@ pub fn pixel_footprints(
             .iter()
             .map(|c| r.d.dot(c.d).clamp(-1.0, 1.0).acos())
             .fold(0.0f32, f32::max);
-        let sole = (scene.shapes[x.shape as usize].prims.len() <= MAX_WALL_PRIMS)
-            .then(|| spheres.around_all_but(scene, x.shape))
-            .flatten()
-            .and_then(|sphere| seen_from(r.o, sphere))
-            .is_some_and(|(axis, angle)| {
-                r.d.dot(axis).clamp(-1.0, 1.0).acos() > spread + angle + 2.0 * MARGIN
-            });
-        sole_shapes.push(sole.then_some(x.shape));
-        covered.push(
-            sole && {
-                let outline = match outlines.iter().position(|(s, _)| *s == x.shape) {
-                    Some(k) => &outlines[k].1,
-                    None => {
-                        let outline = scene
-                            .is_flat(x.shape as usize)
-                            .then(|| flat_outline(scene, x.shape));
-                        outlines.push((x.shape, outline));
-                        &outlines[outlines.len() - 1].1
-                    }
-                };
-                outline
-                    .as_ref()
-                    .zip(quad.as_ref())
-                    .is_some_and(|(outline, quad)| meets_inside(camera, &x, quad, outline))
-            },
-        );
+        let small = scene.shapes[x.shape as usize].prims.len() <= MAX_WALL_PRIMS;
+        let clear_cone = small
+            && spheres
+                .around_all_but(scene, x.shape)
+                .and_then(|sphere| seen_from(r.o, sphere))
+                .is_some_and(|(axis, angle)| {
+                    r.d.dot(axis).clamp(-1.0, 1.0).acos() > spread + angle + 2.0 * MARGIN
+                });
+        // Every ray meets the flat shape inside its outline, within the clipping range.
+        let inside = small && {
+            let outline = match outlines.iter().position(|(s, _)| *s == x.shape) {
+                Some(k) => &outlines[k].1,
+                None => {
+                    let outline = scene
+                        .is_flat(x.shape as usize)
+                        .then(|| flat_outline(scene, x.shape));
+                    outlines.push((x.shape, outline));
+                    &outlines[outlines.len() - 1].1
+                }
+            };
+            outline
+                .as_ref()
+                .zip(quad.as_ref())
+                .is_some_and(|(outline, quad)| meets_inside(camera, &x, quad, outline))
+        };
+        sole_shapes.push(clear_cone.then_some(x.shape));
+        covered.push(clear_cone && inside);
+        // Inside a room the sphere around the rest holds the camera: then the rays, which end
+        // on the shape, meet nothing else if no other primitive enters the pyramid from the
+        // pinhole to their quadrilateral on it (tested below, over the render's threads).
+        if let (false, true, Some(quad)) = (clear_cone, inside, quad) {
+            in_rooms.push((pixel, x, r.o, quad));
+        }
+    }
+    let boxes = if in_rooms.is_empty() {
+        Vec::new()
+    } else {
+        shape_boxes(scene)
+    };
+    let clear = map_indices(in_rooms.len(), |k| {
+        let (_, x, o, quad) = &in_rooms[k];
+        pyramid_clear(scene, &boxes, x, *o, quad)
+    });
+    for ((pixel, x, _, _), clear) in in_rooms.iter().zip(clear) {
+        if clear {
+            sole_shapes[*pixel] = Some(x.shape);
+            covered[*pixel] = true;
+        }
     }
     Footprints {
         points,
@@ -413,6 +439,100 @@ fn meets_inside(
         (0..4).any(|k| apart(n.cross(corners[(k + 1) % 4] - corners[k]), edge))
             || apart(n.cross(edge[1] - edge[0]), edge)
     })
+}
+
+/// Most primitives of a shape whose box enters a pixel's pyramid that [`pyramid_clear`] tests
+/// one by one (a larger one counts as entering).
+const MAX_PYRAMID_PRIMS: usize = 256;
+
+/// Whether no primitive but those of `x`'s shape enters the pyramid from the pinhole `o` to the
+/// quadrilateral `quad` on `x`'s plane (in order around it), beyond which the pixel's rays do not
+/// go: each shape's box (`boxes`, by shape), else each of its triangles, lies wholly outside one
+/// of the pyramid's five planes, or the pyramid wholly on one side of the triangle's plane, by a
+/// gap far beyond rounding (separating planes, Gottschalk et al. 1996); any other primitive
+/// counts as entering.
+fn pyramid_clear(
+    scene: &Scene,
+    boxes: &[[Vec3A; 2]],
+    x: &Interaction,
+    o: Vec3A,
+    quad: &[PlaneCorner; 4],
+) -> bool {
+    let c = quad.each_ref().map(|c| c.p);
+    let apex_and_base = [o, c[0], c[1], c[2], c[3]];
+    // Outward unit normals and points of the four sides and of the base (the shape's plane,
+    // facing away from the pinhole).
+    let side = |k: usize| {
+        let n = (c[k] - o).cross(c[(k + 1) % 4] - o).normalize_or_zero();
+        // Outward: away from the quadrilateral's other corners.
+        let inner = c[(k + 2) % 4] - o;
+        if n.dot(inner) > 0.0 { -n } else { n }
+    };
+    let base = if x.ng.dot(o - x.p) > 0.0 { -x.ng } else { x.ng };
+    let planes = [
+        (base, x.p),
+        (side(0), o),
+        (side(1), o),
+        (side(2), o),
+        (side(3), o),
+    ];
+    if planes.iter().any(|(n, _)| *n == Vec3A::ZERO) {
+        return false;
+    }
+    let scale = o.abs().max_element().max(x.p.abs().max_element());
+    let gap = |points: &[Vec3A]| {
+        1e-4 * (1.0
+            + points
+                .iter()
+                .fold(scale, |m, v| m.max(v.abs().max_element())))
+    };
+    let outside = |points: &[Vec3A]| {
+        let gap = gap(points);
+        planes
+            .iter()
+            .any(|(n, at)| points.iter().all(|v| n.dot(*v - *at) > gap))
+    };
+    scene.shapes.iter().enumerate().all(|(k, shape)| {
+        if k == x.shape as usize {
+            return true;
+        }
+        let [lo, hi] = boxes[k];
+        let corners: [Vec3A; 8] = std::array::from_fn(|i| {
+            Vec3A::select(
+                glam::BVec3A::new(i & 1 != 0, i & 2 != 0, i & 4 != 0),
+                hi,
+                lo,
+            )
+        });
+        outside(&corners)
+            || shape.prims.len() <= MAX_PYRAMID_PRIMS
+                && scene.prims[shape.prims.clone()].iter().all(|p| {
+                    let Prim::Triangle { v, .. } = p else {
+                        return false;
+                    };
+                    let own = (v[1] - v[0]).cross(v[2] - v[0]).normalize_or_zero();
+                    let gap = gap(v);
+                    outside(v)
+                        || own != Vec3A::ZERO && {
+                            let d = apex_and_base.map(|q| own.dot(q - v[0]));
+                            d.iter().all(|&d| d > gap) || d.iter().all(|&d| d < -gap)
+                        }
+                })
+    })
+}
+
+/// Each shape's bounding box (low and high corners), by shape.
+fn shape_boxes(scene: &Scene) -> Vec<[Vec3A; 2]> {
+    scene
+        .shapes
+        .iter()
+        .map(|s| {
+            scene.prims[s.prims.clone()].iter().map(Prim::bounds).fold(
+                [Vec3A::INFINITY, Vec3A::NEG_INFINITY],
+                |[lo, hi], (a, b)| [lo.min(a), hi.max(b)],
+            )
+        })
+        .collect()
 }
 
 /// The sphere `(center, radius)` seen from `p`: the unit direction to its centre and its angular
