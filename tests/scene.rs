@@ -759,10 +759,21 @@ fn scan_cones_turn_down_only_rays_that_meet_nothing() {
 
 /// mitransient's `nlos-z-simple.xml` (a perspective camera looks at the relay wall) and its camera.
 fn mitransient_camera_file() -> (Scene, nlos_rs::sensor::Camera) {
+    camera_scene(&mitransient_nlos_file("nlos-z-simple.xml"))
+}
+
+/// The properties of one of mitransient's NLOS example files.
+fn mitransient_nlos_file(name: &str) -> Props {
     let path = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("tests/data/mitransient/transient-nlos/nlos-z-simple.xml");
-    let props = nlos_rs::xml::load(&path, &Default::default()).expect("mitransient's file");
-    let scene = Scene::from_props(&props, path.parent().expect("a folder")).expect("valid scene");
+        .join("tests/data/mitransient/transient-nlos")
+        .join(name);
+    nlos_rs::xml::load(&path, &Default::default()).expect("mitransient's file")
+}
+
+/// The scene of one of mitransient's NLOS example files (their meshes beside them) and its camera.
+fn camera_scene(props: &Props) -> (Scene, nlos_rs::sensor::Camera) {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/mitransient/transient-nlos");
+    let scene = Scene::from_props(props, &dir).expect("valid scene");
     let camera = scene
         .nlos()
         .expect("NLOS")
@@ -829,21 +840,8 @@ fn covered_camera_pixels_meet_their_wall_with_every_ray() {
 /// whose rays may meet it are not.
 #[test]
 fn camera_pixels_in_a_room_meet_their_wall_with_every_ray() {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("tests/data/mitransient/transient-nlos/nlos-z-room.xml");
-    let mut props = nlos_rs::xml::load(&path, &Default::default()).expect("mitransient's file");
-    let room = |props: &Props| {
-        let scene =
-            Scene::from_props(props, path.parent().expect("a folder")).expect("valid scene");
-        let camera = scene
-            .nlos()
-            .expect("NLOS")
-            .camera
-            .clone()
-            .expect("a camera");
-        (scene, camera)
-    };
-    let (scene, camera) = room(&props);
+    let mut props = mitransient_nlos_file("nlos-z-room.xml");
+    let (scene, camera) = camera_scene(&props);
     let pixels = scene.meter.film.width * scene.meter.film.height;
     let (covered, _) = check_covered_pixels(&scene, &camera);
     assert!(covered > pixels / 2);
@@ -867,7 +865,7 @@ fn camera_pixels_in_a_room_meet_their_wall_with_every_ray() {
             obj("rectangle", vec![("to_world", Value::Matrix(m))]),
         )
         .unwrap();
-    let (scene, camera) = room(&props);
+    let (scene, camera) = camera_scene(&props);
     let (behind_panel, _) = check_covered_pixels(&scene, &camera);
     assert!(behind_panel > pixels / 4 && behind_panel < covered);
 }
