@@ -286,30 +286,35 @@ pub fn pixel_footprints(
                 .is_some_and(|(axis, angle)| {
                     r.d.dot(axis).clamp(-1.0, 1.0).acos() > spread + angle + 2.0 * MARGIN
                 });
-        // Every ray meets the flat shape inside its outline, within the clipping range.
-        let inside = small && {
-            let outline = match outlines.iter().position(|(s, _)| *s == x.shape) {
-                Some(k) => &outlines[k].1,
-                None => {
+        let few =
+            scene.prims.len() - scene.shapes[x.shape as usize].prims.len() <= MAX_PYRAMID_PRIMS;
+        // The flat shape's outline (made once per shape), if a test below needs it.
+        let outline = (small && (clear_cone || few)).then(|| {
+            outlines
+                .iter()
+                .position(|(s, _)| *s == x.shape)
+                .unwrap_or_else(|| {
                     let outline = scene
                         .is_flat(x.shape as usize)
                         .then(|| flat_outline(scene, x.shape));
                     outlines.push((x.shape, outline));
-                    &outlines[outlines.len() - 1].1
-                }
-            };
-            outline
-                .as_ref()
-                .zip(quad.as_ref())
-                .is_some_and(|(outline, quad)| meets_inside(camera, &x, quad, outline))
-        };
+                    outlines.len() - 1
+                })
+        });
         sole_shapes.push(clear_cone.then_some(x.shape));
-        covered.push(clear_cone && inside);
+        // Every ray meets the flat shape inside its outline, within the clipping range.
+        let inside = |outline: Option<usize>, quad: &[PlaneCorner; 4]| {
+            outline
+                .and_then(|k| outlines[k].1.as_ref())
+                .is_some_and(|outline| meets_inside(camera, &x, quad, outline))
+        };
+        covered.push(clear_cone && quad.as_ref().is_some_and(|q| inside(outline, q)));
         // Inside a room the sphere around the rest holds the camera: then the rays, which end
-        // on the shape, meet nothing else if no other primitive enters the pyramid from the
-        // pinhole to their quadrilateral on it (tested below, over the render's threads).
-        if let (false, true, Some(quad)) = (clear_cone, inside, quad) {
-            in_rooms.push((pixel, x, r.o, quad));
+        // on the shape, meet nothing else if they meet it inside its outline and no other
+        // primitive enters the pyramid from the pinhole to their quadrilateral on it (tested
+        // below, over the render's threads).
+        if let (false, Some(k), Some(quad)) = (clear_cone, outline.filter(|_| few), quad) {
+            in_rooms.push((pixel, x, r.o, quad, k));
         }
     }
     let boxes = if in_rooms.is_empty() {
@@ -317,11 +322,15 @@ pub fn pixel_footprints(
     } else {
         shape_boxes(scene)
     };
-    let clear = map_indices(in_rooms.len(), |k| {
-        let (_, x, o, quad) = &in_rooms[k];
-        pyramid_clear(scene, &boxes, x, *o, quad)
+    let clear = map_indices(in_rooms.len(), |i| {
+        let (_, x, o, quad, k) = &in_rooms[i];
+        outlines[*k]
+            .1
+            .as_ref()
+            .is_some_and(|outline| meets_inside(camera, x, quad, outline))
+            && pyramid_clear(scene, &boxes, x, *o, quad)
     });
-    for ((pixel, x, _, _), clear) in in_rooms.iter().zip(clear) {
+    for ((pixel, x, ..), clear) in in_rooms.iter().zip(clear) {
         if clear {
             sole_shapes[*pixel] = Some(x.shape);
             covered[*pixel] = true;
@@ -441,8 +450,8 @@ fn meets_inside(
     })
 }
 
-/// Most primitives of a shape whose box enters a pixel's pyramid that [`pyramid_clear`] tests
-/// one by one (a larger one counts as entering).
+/// Most primitives besides a camera's wall for which [`pyramid_clear`] is tried (a room's few
+/// walls and objects): it bounds the work per pixel.
 const MAX_PYRAMID_PRIMS: usize = 256;
 
 /// Whether no primitive but those of `x`'s shape enters the pyramid from the pinhole `o` to the
@@ -505,19 +514,18 @@ fn pyramid_clear(
             )
         });
         outside(&corners)
-            || shape.prims.len() <= MAX_PYRAMID_PRIMS
-                && scene.prims[shape.prims.clone()].iter().all(|p| {
-                    let Prim::Triangle { v, .. } = p else {
-                        return false;
-                    };
-                    let own = (v[1] - v[0]).cross(v[2] - v[0]).normalize_or_zero();
-                    let gap = gap(v);
-                    outside(v)
-                        || own != Vec3A::ZERO && {
-                            let d = apex_and_base.map(|q| own.dot(q - v[0]));
-                            d.iter().all(|&d| d > gap) || d.iter().all(|&d| d < -gap)
-                        }
-                })
+            || scene.prims[shape.prims.clone()].iter().all(|p| {
+                let Prim::Triangle { v, .. } = p else {
+                    return false;
+                };
+                let own = (v[1] - v[0]).cross(v[2] - v[0]).normalize_or_zero();
+                let gap = gap(v);
+                outside(v)
+                    || own != Vec3A::ZERO && {
+                        let d = apex_and_base.map(|q| own.dot(q - v[0]));
+                        d.iter().all(|&d| d > gap) || d.iter().all(|&d| d < -gap)
+                    }
+            })
     })
 }
 
