@@ -59,8 +59,7 @@ impl NlosTracer<'_> {
         if rng.next_1d() < HGS_SHARE {
             return Some((hg.sample(self.scene, rng), true));
         }
-        let hit = self.bsdf_step(x, wi, rng, None, true)?.next;
-        hg.covers(hit.shape).then_some((hit, false))
+        Some((self.bsdf_step(x, wi, rng, None, Some(hg))?.next, false))
     }
 
     /// The next vertex y from the hidden vertex `from` by the mixture of [`Self::mixture_draw`]

@@ -469,8 +469,9 @@ impl<'a> NlosTracer<'a> {
     }
 
     /// BSDF sampling from `x`: the next vertex is what the sampled direction hits. From a scan
-    /// point with a cone, a direction outside it ends the step untraced (it would meet nothing);
-    /// so does one that surely misses the hidden geometry when only that is kept (`hidden_only`).
+    /// point with a cone, a direction outside it ends the step untraced (it would meet nothing).
+    /// With `keep` the step ends unless its hit lies on that hidden geometry, untraced where the
+    /// direction surely misses it.
     #[inline(always)]
     pub(super) fn bsdf_step(
         &self,
@@ -478,8 +479,9 @@ impl<'a> NlosTracer<'a> {
         wi: Vec3A,
         rng: &mut Sampler,
         cone: Option<&ScanCone>,
-        hidden_only: bool,
+        keep: Option<&AreaSampler>,
     ) -> Option<Step> {
+        let hidden_only = keep.is_some();
         let s = match cone {
             Some(c) => {
                 // The cone holds for directions drawn about its own normal.
@@ -505,6 +507,9 @@ impl<'a> NlosTracer<'a> {
         let (_, hit) = self
             .scene
             .intersect(x.offset_origin(s.wo), s.wo, f32::INFINITY)?;
+        if keep.is_some_and(|hg| !hg.covers(hit.shape)) {
+            return None;
+        }
         Some(Step {
             next: hit,
             dist: (hit.p - x.p).length(),
@@ -830,8 +835,7 @@ impl NlosTracer<'_> {
                 } else {
                     None
                 };
-                self.bsdf_step(&v.it, v.wi, rng, cone, keep_hidden.is_some())
-                    .filter(|s| keep_hidden.is_none_or(|hg| hg.covers(s.next.shape)))
+                self.bsdf_step(&v.it, v.wi, rng, cone, keep_hidden)
             }
         };
         let Some(step) = step else { return false };

@@ -302,13 +302,12 @@ pub fn pixel_footprints(
                 })
         });
         sole_shapes.push(clear_cone.then_some(x.shape));
-        // Every ray meets the flat shape inside its outline, within the clipping range.
-        let inside = |outline: Option<usize>, quad: &[PlaneCorner; 4]| {
-            outline
-                .and_then(|k| outlines[k].1.as_ref())
-                .is_some_and(|outline| meets_inside(camera, &x, quad, outline))
-        };
-        covered.push(clear_cone && quad.as_ref().is_some_and(|q| inside(outline, q)));
+        covered.push(
+            clear_cone
+                && outline
+                    .zip(quad.as_ref())
+                    .is_some_and(|(k, quad)| meets_outline(camera, &outlines[k].1, &x, quad)),
+        );
         // Inside a room the sphere around the rest holds the camera: then the rays, which end
         // on the shape, meet nothing else if they meet it inside its outline and no other
         // primitive enters the pyramid from the pinhole to their quadrilateral on it (tested
@@ -324,11 +323,7 @@ pub fn pixel_footprints(
     };
     let clear = map_indices(in_rooms.len(), |i| {
         let (_, x, o, quad, k) = &in_rooms[i];
-        outlines[*k]
-            .1
-            .as_ref()
-            .is_some_and(|outline| meets_inside(camera, x, quad, outline))
-            && pyramid_clear(scene, &boxes, x, *o, quad)
+        meets_outline(camera, &outlines[*k].1, x, quad) && pyramid_clear(scene, &boxes, x, *o, quad)
     });
     for ((pixel, x, ..), clear) in in_rooms.iter().zip(clear) {
         if clear {
@@ -541,6 +536,19 @@ fn shape_boxes(scene: &Scene) -> Vec<[Vec3A; 2]> {
             )
         })
         .collect()
+}
+
+/// Whether every ray of the pixel meets the flat shape of `outline` (`None` for a shape that is
+/// not flat) inside it, within the clipping range ([`meets_inside`]).
+fn meets_outline(
+    camera: &Camera,
+    outline: &Option<Vec<[Vec3A; 2]>>,
+    x: &Interaction,
+    quad: &[PlaneCorner; 4],
+) -> bool {
+    outline
+        .as_ref()
+        .is_some_and(|outline| meets_inside(camera, x, quad, outline))
 }
 
 /// The sphere `(center, radius)` seen from `p`: the unit direction to its centre and its angular
