@@ -701,7 +701,14 @@ macro_rules! with_tracer {
                 $body
             }
             Setup::Los(los) => {
-                let $t = &PathTracer::new($scene, los, $opts.mono)?;
+                let $t = &PathTracer::new(
+                    $scene,
+                    los,
+                    $opts.mono,
+                    $plan.spp,
+                    &$monitor.cancel,
+                    $pixels,
+                )?;
                 $body
             }
         }

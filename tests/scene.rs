@@ -870,6 +870,55 @@ fn camera_pixels_in_a_room_meet_their_wall_with_every_ray() {
     assert!(behind_panel > pixels / 4 && behind_panel < covered);
 }
 
+/// mitransient's Cornell box file (line of sight): its walls are single quads shaded by vertex
+/// normals, planar but not flat sheets. Pixels whose rays nothing but one wall can meet (no other
+/// primitive in their pyramid) are found among them, and for every ray of such a pixel (corner,
+/// edge and centre rays, and random ones) that wall's triangles alone give the hit the whole
+/// scene gives, bit for bit ([`Scene::camera_hit`], which `transient_path` takes for such pixels).
+#[test]
+fn line_of_sight_pixels_with_a_sole_shape_meet_it_alone() {
+    use nlos_rs::integrator::scan_cone::pixel_footprints;
+    use nlos_rs::sampling::ONE_MINUS_EPSILON;
+    use nlos_rs::scene::Setup;
+    use std::sync::atomic::AtomicBool;
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/mitransient/cornell-box");
+    let params = [("res".to_string(), "40".to_string())].into();
+    let props = nlos_rs::xml::load(&dir.join("cbox_diffuse.xml"), &params).expect("the file");
+    let scene = Scene::from_props(&props, &dir).expect("valid scene");
+    let Setup::Los(los) = &scene.setup else {
+        panic!("a line-of-sight scene")
+    };
+    let (w, h) = (scene.meter.film.width, scene.meter.film.height);
+    let seen_by = pixel_footprints(&scene, &los.camera, &AtomicBool::new(false), 0..usize::MAX);
+    let sole: Vec<_> = (0..w * h)
+        .filter_map(|p| seen_by.sole_shapes[p].map(|s| (p, s)))
+        .collect();
+    println!("{} of {} pixels with a sole shape", sole.len(), w * h);
+    assert!(sole.len() > w * h / 4);
+    assert!(
+        sole.iter()
+            .all(|&(_, s)| scene.is_planar(s as usize) && !scene.is_flat(s as usize))
+    );
+    let mut rng = Sampler::new(11, 0, 0);
+    let edge = [0.0, 0.5, ONE_MINUS_EPSILON];
+    for &(pixel, shape) in &sole {
+        let jitters = edge
+            .iter()
+            .flat_map(|&x| edge.iter().map(move |&y| Vec2::new(x, y)))
+            .chain((0..100).map(|_| rng.next_2d()));
+        for j in jitters {
+            let r = los.camera.pixel_ray(pixel, w, h, j);
+            let found = scene.accel.intersect(r.o, r.d, r.tmin, r.tmax);
+            let alone = scene.camera_hit(&r, Some(shape));
+            assert_eq!(
+                alone.map(|h| (h.t, h.prim, h.b)),
+                found.map(|h| (h.t, h.prim, h.b)),
+                "pixel {pixel}"
+            );
+        }
+    }
+}
+
 /// mitransient's camera file: every pixel that sees the relay wall gets a footprint cone, which
 /// holds for the first vertices its jittered camera rays find, and each direction it turns down
 /// meets nothing; where a pixel's rays can meet the wall alone, its triangles alone give the hit

@@ -16,8 +16,7 @@ use crate::bsdf::Bsdf;
 use crate::capture::{Capture, Spot};
 use crate::emitter::Projector;
 use crate::error::{NlosError, Result};
-use crate::geometry::bvh::intersect_brute;
-use crate::geometry::{Hit, Interaction, Prim};
+use crate::geometry::{Interaction, Prim};
 use crate::math::{COS_EPS, Spectrum};
 use crate::parallel::map_indices;
 use crate::sampling::Sampler;
@@ -635,19 +634,7 @@ impl<'a> NlosTracer<'a> {
     fn camera_vertex(&self, camera: &Camera, pixel: usize, rng: &mut Sampler) -> Option<Vertex> {
         let film = &self.scene.meter.film;
         let r = camera.pixel_ray(pixel, film.width, film.height, rng.next_2d());
-        let hit = match self.scan.sole_shapes[pixel] {
-            // Nothing else lies in the pixel's rays: that shape's few triangles alone, tested
-            // as the scan and the tree test them (the same hits, the same tie rule).
-            Some(shape) => {
-                let prims = self.scene.shapes[shape as usize].prims.clone();
-                let first = prims.start as u32;
-                intersect_brute(&self.scene.prims[prims], r.o, r.d, r.tmin, r.tmax).map(|h| Hit {
-                    prim: h.prim + first,
-                    ..h
-                })
-            }
-            None => self.scene.accel.intersect(r.o, r.d, r.tmin, r.tmax),
-        }?;
+        let hit = self.scene.camera_hit(&r, self.scan.sole_shapes[pixel])?;
         Some(sensor_vertex(
             self.settings,
             self.scene.interaction(r.o, r.d, &hit),

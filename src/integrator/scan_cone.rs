@@ -23,7 +23,9 @@
 //! else enters the pyramid of its rays up to the wall), the camera ray can meet the wall alone
 //! ([`Footprints::sole_shapes`]), and where moreover the wall is a flat sheet whose outline lies
 //! clear of the pixel's footprint, every one of its rays meets it ([`Footprints::covered`]): a
-//! path's first direction can then be judged before its camera ray is traced.
+//! path's first direction can then be judged before its camera ray is traced. Line-of-sight
+//! renders (`transient_path`) take the sole shapes as well: a camera ray of such a pixel is
+//! tested against that shape's few triangles instead of the whole scene.
 
 use crate::bsdf::Bsdf;
 use crate::geometry::{Interaction, Prim, Ray};
@@ -207,7 +209,7 @@ pub struct Footprints {
     pub points: Vec<Option<(Interaction, Vec3A, f32)>>,
     /// Per pixel, the one shape (of at most `MAX_WALL_PRIMS` primitives) its rays can meet:
     /// where the pixel's rays all pass outside the sphere around the rest of the scene, or where
-    /// they all end on that flat shape and no other primitive enters their pyramid
+    /// they all end on that planar shape and no other primitive enters their pyramid
     /// ([`pyramid_clear`]: a camera inside a room).
     pub sole_shapes: Vec<Option<u32>>,
     /// Per pixel with a sole shape, whether every one of its rays meets that shape: a flat sheet
@@ -288,15 +290,15 @@ pub fn pixel_footprints(
                 });
         let few =
             scene.prims.len() - scene.shapes[x.shape as usize].prims.len() <= MAX_PYRAMID_PRIMS;
-        // The flat shape's outline (made once per shape), if a test below needs it.
+        // The planar shape's outline (made once per shape), if a test below needs it.
         let outline = (small && (clear_cone || few)).then(|| {
             outlines
                 .iter()
                 .position(|(s, _)| *s == x.shape)
                 .unwrap_or_else(|| {
                     let outline = scene
-                        .is_flat(x.shape as usize)
-                        .then(|| flat_outline(scene, x.shape));
+                        .is_planar(x.shape as usize)
+                        .then(|| planar_outline(scene, x.shape));
                     outlines.push((x.shape, outline));
                     outlines.len() - 1
                 })
@@ -304,6 +306,7 @@ pub fn pixel_footprints(
         sole_shapes.push(clear_cone.then_some(x.shape));
         covered.push(
             clear_cone
+                && scene.is_flat(x.shape as usize)
                 && outline
                     .zip(quad.as_ref())
                     .is_some_and(|(k, quad)| meets_outline(camera, &outlines[k].1, &x, quad)),
@@ -338,9 +341,9 @@ pub fn pixel_footprints(
     }
 }
 
-/// The outline of a flat shape's triangles: each edge not shared by two triangles on either side
+/// The outline of a planar shape's triangles: each edge not shared by two triangles on either side
 /// of it (the same two vertices).
-fn flat_outline(scene: &Scene, shape: u32) -> Vec<[Vec3A; 2]> {
+fn planar_outline(scene: &Scene, shape: u32) -> Vec<[Vec3A; 2]> {
     let prims = &scene.prims[scene.shapes[shape as usize].prims.clone()];
     let key = |v: Vec3A| v.to_array().map(f32::to_bits);
     // Each edge, its vertices in order of their bits, with the third vertex of every triangle on it.
@@ -399,7 +402,7 @@ fn plane_corners(x: &Interaction, rays: [&Ray; 4]) -> Option<[PlaneCorner; 4]> {
 }
 
 /// Whether every ray through the pixel whose corner rays meet the plane of `x` (the central
-/// ray's point on a flat shape with outline `outline`) at `quad`, in order around it, meets that
+/// ray's point on a planar shape with outline `outline`) at `quad`, in order around it, meets that
 /// shape: the rays meet the plane within the camera's clipping range, in a quadrilateral that
 /// holds `x` and that no edge of the outline comes near (so that it lies within the shape).
 fn meets_inside(
@@ -538,8 +541,8 @@ fn shape_boxes(scene: &Scene) -> Vec<[Vec3A; 2]> {
         .collect()
 }
 
-/// Whether every ray of the pixel meets the flat shape of `outline` (`None` for a shape that is
-/// not flat) inside it, within the clipping range ([`meets_inside`]).
+/// Whether every ray of the pixel meets the planar shape of `outline` (`None` for a shape that
+/// is not planar) inside it, within the clipping range ([`meets_inside`]).
 fn meets_outline(
     camera: &Camera,
     outline: &Option<Vec<[Vec3A; 2]>>,

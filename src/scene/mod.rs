@@ -12,8 +12,8 @@ use crate::bsdf::Bsdf;
 use crate::emitter::{Light, Projector};
 use crate::error::{NlosError, Result};
 use crate::geometry::{
-    Hit, Interaction, Prim,
-    bvh::{Accel, NO_PLANE},
+    Hit, Interaction, Prim, Ray,
+    bvh::{Accel, NO_PLANE, intersect_brute},
     shadow_segment,
 };
 use crate::math::{Spectrum, Transform, look_at};
@@ -170,19 +170,26 @@ impl Scene {
         if self.shape_flip[shape] { -1.0 } else { 1.0 }
     }
 
-    /// Whether shape `shape` is a flat sheet of triangles shaded by their face normals: in one
-    /// plane (the tree's test, [`Accel::plane_of`]), without vertex normals. No light goes from
-    /// one of its points to another: the direction between them lies in the plane, at a cosine of
-    /// zero to both. (A disk is planar too, but not taken here: the scan cones outline a sheet
-    /// by its triangles' edges.)
-    pub fn is_flat(&self, shape: usize) -> bool {
+    /// Whether shape `shape` is a sheet of triangles in one plane (the tree's test,
+    /// [`Accel::plane_of`]). (A disk is planar too, but not taken here: the scan cones outline a
+    /// sheet by its triangles' edges.)
+    pub fn is_planar(&self, shape: usize) -> bool {
         let range = self.shapes[shape].prims.clone();
         !range.is_empty()
             && self.accel.plane_of(shape as u32) != NO_PLANE
-            && self.prims[range.clone()]
+            && self.prims[range]
                 .iter()
                 .all(|p| matches!(p, Prim::Triangle { .. }))
-            && self.prim_normals[range].iter().all(Option::is_none)
+    }
+
+    /// Whether shape `shape` is a flat sheet of triangles shaded by their face normals: planar
+    /// ([`Self::is_planar`]), without vertex normals. No light goes from one of its points to
+    /// another: the direction between them lies in the plane, at a cosine of zero to both.
+    pub fn is_flat(&self, shape: usize) -> bool {
+        self.is_planar(shape)
+            && self.prim_normals[self.shapes[shape].prims.clone()]
+                .iter()
+                .all(Option::is_none)
     }
 
     /// Each shape's BSDF resolved for a mono or rgb render, indexed by shape.
@@ -215,6 +222,25 @@ impl Scene {
             ns: ns * s,
             shape,
             prim: i as u32,
+        }
+    }
+
+    /// The closest hit of a camera ray within its clipping range: with `sole`, the one shape its
+    /// pixel's rays can meet (found before the render by the scan cones' pixel footprints), its
+    /// few primitives alone, tested as the scan and the tree test them (the same hit, the same tie
+    /// rule); else through the whole scene.
+    #[inline(always)]
+    pub fn camera_hit(&self, r: &Ray, sole: Option<u32>) -> Option<Hit> {
+        match sole {
+            Some(shape) => {
+                let prims = self.shapes[shape as usize].prims.clone();
+                let first = prims.start as u32;
+                intersect_brute(&self.prims[prims], r.o, r.d, r.tmin, r.tmax).map(|h| Hit {
+                    prim: h.prim + first,
+                    ..h
+                })
+            }
+            None => self.accel.intersect(r.o, r.d, r.tmin, r.tmax),
         }
     }
 
