@@ -77,10 +77,11 @@ pub struct PathTracer<'a> {
 }
 
 /// Fewest samples per pixel for which a render finds its pixels' sole shapes: that takes about
-/// 0.45 µs a pixel (72 ms for mitransient's Cornell box file at 400×400), and spares each camera
-/// ray the scene's scan (about 10 ns; its line-of-sight examples with one area light 1.06–1.09×
-/// as fast at 64 samples per pixel).
-pub const SOLE_SHAPES_MIN_SPP: u64 = 64;
+/// 0.45 µs a pixel (72 ms for mitransient's Cornell box file at 400×400, once per scene), and
+/// spares each camera ray of those pixels the scene's scan (mitransient's line-of-sight examples
+/// with one area light 1.04–1.14× as fast; the golden digest `los_cornell_adaptive` renders with
+/// them).
+const SOLE_SHAPES_MIN_SPP: u64 = 64;
 
 /// What a render prepares from the scene alone: each pixel's sole shape. A render of every pixel
 /// makes it once per scene and variant, and later renders take it from the scene
