@@ -899,6 +899,8 @@ fn line_of_sight_pixels_with_a_sole_shape_meet_it_alone() {
         sole.iter()
             .all(|&(_, s)| scene.is_planar(s as usize) && !scene.is_flat(s as usize))
     );
+    // Not flat sheets: no pixel's footprint cone may be judged before its camera ray.
+    assert!(seen_by.covered.iter().all(|&c| !c));
     let mut rng = Sampler::new(11, 0, 0);
     let edge = [0.0, 0.5, ONE_MINUS_EPSILON];
     for &(pixel, shape) in &sole {

@@ -331,7 +331,8 @@ pub fn pixel_footprints(
     for ((pixel, x, ..), clear) in in_rooms.iter().zip(clear) {
         if clear {
             sole_shapes[*pixel] = Some(x.shape);
-            covered[*pixel] = true;
+            // Every ray meets the shape; its cone holds for them on a flat sheet alone.
+            covered[*pixel] = scene.is_flat(x.shape as usize);
         }
     }
     Footprints {
