@@ -429,6 +429,43 @@ fn sample_reuse_agrees_with_one_path_per_scan_point() {
 }
 
 #[test]
+fn sample_reuse_takes_delta_surfaces_that_no_path_leaves() {
+    // A smooth plastic rectangle (a delta coating) before the others, facing the relay wall: no
+    // hidden geometry lies in front of it, so no path goes on from it and the render shares light
+    // subpaths; each scan point's total agrees with one path per scan point across 12 seeds.
+    // Behind the others it would send paths on to them by its mirror reflection: no sharing.
+    let with_plastic = |z: f64, extra: Vec<(&str, Value)>| {
+        let mut p = scene_props(extra, vec![]);
+        let m = DMat4::from_translation(DVec3::new(0.1, -0.2, z))
+            * DMat4::from_rotation_x(std::f64::consts::PI)
+            * DMat4::from_scale(DVec3::splat(0.15));
+        p.insert(
+            "plastic",
+            obj(
+                "rectangle",
+                vec![
+                    ("to_world", Value::Matrix(m)),
+                    ("bsdf", obj("plastic", vec![])),
+                ],
+            ),
+        )
+        .unwrap();
+        load(&p)
+    };
+    assert!(!nlos_rs::integrator::shares_samples(&with_plastic(
+        1.6,
+        vec![]
+    )));
+    let shared = with_plastic(0.5, vec![]);
+    let per_point = with_plastic(0.5, vec![("nlos_sample_reuse", Value::Bool(false))]);
+    assert!(nlos_rs::integrator::shares_samples(&shared));
+    agree(
+        &totals(&shared, 4096, 0..12),
+        &totals(&per_point, 4096, 100..112),
+    );
+}
+
+#[test]
 fn hidden_geometry_sampling_sees_the_back_of_two_sided_surfaces() {
     // The scene plus a two-sided diffuse rectangle whose normal points away from the relay wall
     // (only its back is seen), direct light only: hidden-geometry sampling, with and without
@@ -597,7 +634,8 @@ fn visibility_guide_agrees_and_spends_less_on_unlit_geometry() {
     // The scene plus a 4 m² rectangle behind the others, facing away from the relay wall (one-sided
     // diffuse, lit only from behind: a first hidden vertex there carries nothing). The guided first
     // vertex (default) and the uniform one agree per scan point across seeds, and the guide's
-    // variance is lower.
+    // variance is lower: about 7.5 times (7.38 and 7.65 over 128 seeds each, on two random
+    // streams; 32 seeds measured 4.93 on one and 2.88 on the other).
     let with_back = |guided: bool| {
         let mut p = scene_props(
             vec![("nlos_visibility_guiding", Value::Bool(guided))],
@@ -612,8 +650,8 @@ fn visibility_guide_agrees_and_spends_less_on_unlit_geometry() {
         load(&p)
     };
     let (a, b) = (
-        totals(&with_back(true), 1024, 0..32),
-        totals(&with_back(false), 1024, 100..132),
+        totals(&with_back(true), 1024, 0..128),
+        totals(&with_back(false), 1024, 200..328),
     );
     let (var_a, var_b) = agree(&a, &b);
     println!(

@@ -5,7 +5,8 @@
 //! connections of a capture's scan points and laser spots to that triangle are unoccluded, and
 //! need no shadow ray. Likewise a ray that leaves a triangle on a side of its plane where no
 //! hidden geometry lies meets none: the BSDF draw of the mixture at hidden vertices
-//! ([`super::hidden_mixture`]), which keeps only hidden geometry, ends there untraced.
+//! ([`super::hidden_mixture`]), which keeps only hidden geometry, ends there untraced, and a
+//! vertex whose every side its BSDF leaves by is such a side ends its path before any draw.
 //!
 //! The Z behind one corner is the case in point: its front faces look at the relay wall with
 //! nothing in between (the wall itself, on the scan points' plane, is skipped by their shadow rays),
@@ -127,6 +128,80 @@ fn extent(prim: &Prim, n: DVec3, d: f64) -> (f64, f64) {
     }
 }
 
+/// The rounding margin e of a scene whose largest coordinate, counting `reach` (the viewpoints'),
+/// is C; `None` for a scene of more than [`MAX_PRIMS`] primitives or beyond [`MAX_COORDINATE`].
+fn rounding_margin(scene: &Scene, reach: f64) -> Option<f64> {
+    if scene.prims.len() > MAX_PRIMS {
+        return None;
+    }
+    let c = scene
+        .prims
+        .iter()
+        .flat_map(|p| [DVec3::X, DVec3::Y, DVec3::Z].map(|a| extent(p, a, 0.0)))
+        .fold(reach, |m, (lo, hi)| m.max(lo.abs()).max(hi.abs()));
+    (c < MAX_COORDINATE).then_some(5e-7 * (1.0 + c))
+}
+
+/// The plane n·x = d of primitive `i`, n oriented as its interactions' normal (flip_normals
+/// included), if it is a triangle with one.
+fn face_plane(scene: &Scene, i: usize) -> Option<(DVec3, f64)> {
+    let Prim::Triangle { v, .. } = &scene.prims[i] else {
+        return None;
+    };
+    let [a, b, c] = v.map(|v| v.as_dvec3());
+    let shape = scene.prim_shape[i] as usize;
+    let n = (b - a).cross(c - a).normalize_or_zero() * scene.normal_sign(shape) as f64;
+    (n != DVec3::ZERO).then(|| (n, n.dot(a)))
+}
+
+/// How far past the plane (n, d) of primitive `i` the hidden geometry reaches on its front and
+/// its back; the scan stops once both are beyond `e`.
+fn hidden_reach(
+    scene: &Scene,
+    hidden: &AreaSampler,
+    i: usize,
+    (n, d): (DVec3, f64),
+    e: f64,
+) -> [f64; 2] {
+    let mut past = [0.0f64; 2];
+    for (j, p) in scene.prims.iter().enumerate() {
+        if past[0] > e && past[1] > e {
+            break;
+        }
+        if j != i && hidden.covers(scene.prim_shape[j]) {
+            let (lo, hi) = extent(p, n, d);
+            past = [past[0].max(hi), past[1].max(-lo)];
+        }
+    }
+    past
+}
+
+/// Whether no path goes on from the surfaces of the shapes `picked` selects, judged from the scene
+/// alone: each of their primitives is a triangle with no hidden geometry beyond a side a step
+/// leaves by ([`ClearView::reaches_no_hidden`]: the front alone where its shape's BSDF is
+/// one-sided, `either_side` false, and it has no vertex normals; both sides otherwise). False in
+/// a scene too large to judge.
+pub fn paths_end_on(
+    scene: &Scene,
+    hidden: &AreaSampler,
+    picked: impl Fn(usize) -> bool,
+    either_side: impl Fn(usize) -> bool,
+) -> bool {
+    let Some(e) = rounding_margin(scene, 0.0) else {
+        return false;
+    };
+    (0..scene.prims.len())
+        .filter(|&i| picked(scene.prim_shape[i] as usize))
+        .all(|i| {
+            face_plane(scene, i).is_some_and(|plane| {
+                let past = hidden_reach(scene, hidden, i, plane, e);
+                let front_only =
+                    !either_side(scene.prim_shape[i] as usize) && scene.prim_normals[i].is_none();
+                past[0] <= e && (past[1] <= e || front_only)
+            })
+        })
+}
+
 impl ClearView {
     /// Judge the scene's triangles from its scan points (`scan`, none with a camera) and laser
     /// spots (`spots`), and their sides against the hidden geometry (`hidden`'s shapes, if
@@ -138,52 +213,31 @@ impl ClearView {
         spots: impl Iterator<Item = &'a Interaction>,
         hidden: Option<&AreaSampler>,
     ) -> Self {
-        let prims = &scene.prims;
-        if prims.len() > MAX_PRIMS {
-            return Self::default();
-        }
         let scan = Viewpoints::of(scene, scan);
         let spots = Viewpoints::of(scene, spots);
         let reach = |v: &Option<Viewpoints>| {
             v.as_ref()
                 .map_or(0.0, |v| v.low.abs().max(v.high.abs()).max_element())
         };
-        // The scene's largest coordinate, C.
-        let c = prims
-            .iter()
-            .flat_map(|p| [DVec3::X, DVec3::Y, DVec3::Z].map(|a| extent(p, a, 0.0)))
-            .fold(reach(&scan).max(reach(&spots)), |m, (lo, hi)| {
-                m.max(lo.abs()).max(hi.abs())
-            });
-        if !(c < MAX_COORDINATE) {
+        let Some(e) = rounding_margin(scene, reach(&scan).max(reach(&spots))) else {
             return Self::default();
-        }
-        let e = 5e-7 * (1.0 + c);
+        };
         let margin = 5.0 * e / SHADOW_EPS as f64;
+        let prims = &scene.prims;
         // Each face on its own (spread over the render's threads): 14 ms for 968 triangles on one.
         let flags = map_indices(prims.len(), |i| {
-            let Prim::Triangle { v, .. } = &prims[i] else {
+            let Some((n, d)) = face_plane(scene, i) else {
                 return 0;
             };
-            let [a, b, c] = v.map(|v| v.as_dvec3());
-            // The plane, oriented as the interactions' normal (flip_normals included).
-            let shape = scene.prim_shape[i];
-            let n =
-                (b - a).cross(c - a).normalize_or_zero() * scene.normal_sign(shape as usize) as f64;
-            if n == DVec3::ZERO {
-                return 0;
-            }
-            let d = n.dot(a);
             let sides = [&scan, &spots].map(|v| v.as_ref().and_then(|v| v.side(n, d, margin)));
-            // How far past the plane, on each side, the primitives of each set reach; the
-            // scan stops once no flag can be set.
-            let mut past = Past::default();
-            let open = |past: &Past| {
-                (0..2).any(|k| sides[k].is_some_and(|s| past.tested[k][s] <= e))
-                    || (hidden.is_some() && past.hidden.iter().any(|&h| h <= e))
+            // How far past the plane, on each side, the primitives each set's shadow rays test
+            // reach; the scan stops once no flag can be set.
+            let mut tested = [[0.0f64; 2]; 2];
+            let open = |tested: &[[f64; 2]; 2]| {
+                (0..2).any(|k| sides[k].is_some_and(|s| tested[k][s] <= e))
             };
             for (j, p) in prims.iter().enumerate() {
-                if !open(&past) {
+                if !open(&tested) {
                     break;
                 }
                 if j == i {
@@ -195,24 +249,22 @@ impl ClearView {
                     if v.as_ref()
                         .is_some_and(|v| v.key == NO_PLANE || v.key != key)
                     {
-                        past.tested[k] = [past.tested[k][0].max(hi), past.tested[k][1].max(-lo)];
+                        tested[k] = [tested[k][0].max(hi), tested[k][1].max(-lo)];
                     }
-                }
-                if hidden.is_some_and(|h| h.covers(scene.prim_shape[j])) {
-                    past.hidden = [past.hidden[0].max(hi), past.hidden[1].max(-lo)];
                 }
             }
             let mut f = 0;
             for (k, bit) in [FROM_SCAN, FROM_SPOTS].into_iter().enumerate() {
-                if sides[k].is_some_and(|s| past.tested[k][s] <= e) {
+                if sides[k].is_some_and(|s| tested[k][s] <= e) {
                     f |= bit;
                 }
             }
-            if hidden.is_some() {
-                if past.hidden[0] <= e {
+            if let Some(hidden) = hidden {
+                let past = hidden_reach(scene, hidden, i, (n, d), e);
+                if past[0] <= e {
                     f |= OPEN_FRONT;
                 }
-                if past.hidden[1] <= e {
+                if past[1] <= e {
                     f |= OPEN_BACK;
                 }
             }
@@ -247,6 +299,18 @@ impl ClearView {
         (c > 1e-4 && self.has(x.prim, OPEN_FRONT)) || (c < -1e-4 && self.has(x.prim, OPEN_BACK))
     }
 
+    /// Whether no step from `x` reaches hidden geometry: every side of its triangle that a step
+    /// may leave by has none beyond. A one-sided BSDF over flat shading (shading normal equal to
+    /// the geometric one) leaves by the front alone: its draws lie about that normal, and a
+    /// hidden-geometry edge must face it; any other leaves by either side. What lies within the
+    /// rounding margin of the plane (the rest of a flat sheet) meets `x` at a cosine of zero, so
+    /// the path ends there with nothing lost.
+    #[inline]
+    pub fn reaches_no_hidden(&self, x: &Interaction, either_side: bool) -> bool {
+        self.has(x.prim, OPEN_FRONT)
+            && (self.has(x.prim, OPEN_BACK) || (!either_side && x.ns == x.ng))
+    }
+
     /// [`Self::misses_hidden`] for a cosine-weighted direction about `n` from the square sample
     /// `u`, before the warp: `n` is `x`'s geometric normal or its opposite, that side is open,
     /// and u lies inside the concentric disk (of radius max |2u − 1|) well enough that the
@@ -259,12 +323,4 @@ impl ClearView {
             && ((n == x.ng && self.has(x.prim, OPEN_FRONT))
                 || (n == -x.ng && self.has(x.prim, OPEN_BACK)))
     }
-}
-
-/// How far past a plane the primitives reach on its front and back (index 0 and 1): those the
-/// shadow rays from the scan points and from the spots test, and the hidden ones.
-#[derive(Default)]
-struct Past {
-    tested: [[f64; 2]; 2],
-    hidden: [f64; 2],
 }

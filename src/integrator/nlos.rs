@@ -787,6 +787,18 @@ impl NlosTracer<'_> {
         if self.ends_after_connecting(depth) {
             return false;
         }
+        // ---- A vertex whose next one must lie on hidden geometry (hidden-geometry sampling in
+        // force, without the technique roulette's BSDF draws that keep any hit) ends here, before
+        // any draw, where none lies beyond the sides its BSDF leaves by.
+        if self.hidden_at(depth).is_some()
+            && !st.hgs_rroulette
+            && self
+                .scan
+                .clear
+                .reaches_no_hidden(&v.it, self.scatters_behind(&v.it))
+        {
+            return false;
+        }
         // ---- Direction sampling: hidden geometry (plain or HGRS) or the BSDF. Where some BSDF
         // component is a delta, a draw towards hidden geometry would miss it: the BSDF draws
         // instead and keeps its hit only on the hidden geometry in force (`keep_hidden`), so that

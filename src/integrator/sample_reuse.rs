@@ -20,6 +20,7 @@
 //! This is the connection idea of light tracing and bidirectional path tracing (Veach 1997, ch. 10)
 //! applied to the scan grid. docs/techniques.md states when it applies and what it gains.
 
+use super::clear_view::paths_end_on;
 use super::nlos::HiddenEdge;
 use super::{NlosTracer, Splat, Step, Vertex, hgrs, russian_roulette};
 use crate::bsdf::Bsdf;
@@ -35,8 +36,11 @@ use std::sync::atomic::Ordering;
 /// Whether a render of `scene` shares light subpaths among scan points: `nlos_sample_reuse` is on,
 /// the capture uses laser sampling and hidden-geometry sampling at every vertex (no technique
 /// mixture, no depth limit on it; HGRS only for a single capture, whose first vertex's candidates
-/// are judged from its one spot), and no BSDF has a delta component (those paths are reached by
-/// BSDF sampling from the scan point's side, which a light subpath cannot mirror).
+/// are judged from its one spot), and no path goes on from a surface whose BSDF has a delta
+/// component: such a path is reached by BSDF sampling from the scan point's side, which a light
+/// subpath cannot mirror, so those surfaces must have no hidden geometry beyond the sides their
+/// BSDF leaves by (`clear_view::paths_end_on`: the plastic Z, whose mirror reflection meets
+/// nothing hidden; not a mirror in a room).
 pub fn shares_samples(scene: &Scene) -> bool {
     let Setup::Nlos(n) = &scene.setup else {
         return false;
@@ -49,7 +53,21 @@ pub fn shares_samples(scene: &Scene) -> bool {
         && s.hidden_geometry_sampling
         && !s.hgs_rroulette
         && s.hgs_max_depth.is_none()
-        && !scene.shape_bsdfs(true).iter().any(Bsdf::has_delta)
+        && delta_paths_end(scene, s.hgs_includes_relay_wall)
+}
+
+/// Whether no path goes on from a surface whose BSDF has a delta component (true where none has).
+fn delta_paths_end(scene: &Scene, with_wall: bool) -> bool {
+    let bsdfs = scene.shape_bsdfs(true);
+    !bsdfs.iter().any(Bsdf::has_delta)
+        || scene.hidden_geometry(with_wall).is_some_and(|hidden| {
+            paths_end_on(
+                scene,
+                hidden,
+                |k| bsdfs[k].has_delta(),
+                |k| bsdfs[k].scatters_behind(),
+            )
+        })
 }
 
 /// Most laser points an exhaustive capture links to each light subpath: a block of subpaths holds a
@@ -203,6 +221,10 @@ impl NlosTracer<'_> {
             // ---- The next hidden vertex, on the scan point's side of this one.
             if count.saturating_add(2) >= st.max_depth
                 || st.filter_depth.is_some_and(|f| count + 3 > f)
+                || self
+                    .scan
+                    .clear
+                    .reaches_no_hidden(&it, self.scatters_behind(&it))
             {
                 break;
             }
