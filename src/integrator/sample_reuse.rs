@@ -39,8 +39,8 @@ use std::sync::atomic::Ordering;
 /// are judged from its one spot), and no path goes on from a surface whose BSDF has a delta
 /// component: such a path is reached by BSDF sampling from the scan point's side, which a light
 /// subpath cannot mirror, so those surfaces must have no hidden geometry beyond the sides their
-/// BSDF leaves by (`clear_view::paths_end_on`: the plastic Z, whose mirror reflection meets
-/// nothing hidden; not a mirror in a room).
+/// BSDF leaves by (`clear_view::paths_end_on`: a flat plastic letter facing the relay wall, whose
+/// mirror reflection meets nothing hidden; not an extruded one, whose sides face one another).
 pub fn shares_samples(scene: &Scene) -> bool {
     let Setup::Nlos(n) = &scene.setup else {
         return false;
