@@ -159,10 +159,7 @@ impl ScanSetup {
         if cancel.load(Ordering::Relaxed) {
             return Err(NlosError::Interrupted);
         }
-        let hidden = settings
-            .hidden_geometry_sampling
-            .then(|| scene.hidden_geometry(settings.hgs_includes_relay_wall))
-            .flatten();
+        let hidden = scene.sampled_hidden_geometry();
         let clear = ClearView::new(
             scene,
             scan_vertices.iter().flatten().map(|v| &v.it),
@@ -233,21 +230,14 @@ impl<'a> NlosTracer<'a> {
     ) -> Result<Self> {
         let nlos = scene.nlos()?;
         let settings = &nlos.settings;
-        let hidden = if settings.hidden_geometry_sampling {
-            Some(
-                scene
-                    .hidden_geometry(settings.hgs_includes_relay_wall)
-                    .ok_or_else(|| {
-                        NlosError::prop(
-                            "transient_nlos_path",
-                            "nlos_hidden_geometry_sampling",
-                            "the scene has no hidden geometry to sample (zero total area)",
-                        )
-                    })?,
-            )
-        } else {
-            None
-        };
+        let hidden = scene.sampled_hidden_geometry();
+        if settings.hidden_geometry_sampling && hidden.is_none() {
+            return Err(NlosError::prop(
+                "transient_nlos_path",
+                "nlos_hidden_geometry_sampling",
+                "the scene has no hidden geometry to sample (zero total area)",
+            ));
+        }
         let bsdfs = scene.shape_bsdfs(mono);
         let film = &scene.meter.film;
         let scan = if pixels == (0..film.width * film.height) {

@@ -53,14 +53,14 @@ pub fn shares_samples(scene: &Scene) -> bool {
         && s.hidden_geometry_sampling
         && !s.hgs_rroulette
         && s.hgs_max_depth.is_none()
-        && delta_paths_end(scene, s.hgs_includes_relay_wall)
+        && delta_paths_end(scene)
 }
 
 /// Whether no path goes on from a surface whose BSDF has a delta component (true where none has).
-fn delta_paths_end(scene: &Scene, with_wall: bool) -> bool {
+fn delta_paths_end(scene: &Scene) -> bool {
     let bsdfs = scene.shape_bsdfs(true);
     !bsdfs.iter().any(Bsdf::has_delta)
-        || scene.hidden_geometry(with_wall).is_some_and(|hidden| {
+        || scene.sampled_hidden_geometry().is_some_and(|hidden| {
             paths_end_on(
                 scene,
                 hidden,

@@ -164,6 +164,16 @@ impl Scene {
             .as_deref()
     }
 
+    /// The hidden geometry that hidden-geometry sampling draws from in this NLOS scene, as its
+    /// settings ask (`nlos_hidden_geometry_sampling`, `..._includes_relay_wall`): `None` with the
+    /// sampling off, or with nothing of area to sample.
+    pub fn sampled_hidden_geometry(&self) -> Option<&AreaSampler> {
+        let s = &self.nlos().ok()?.settings;
+        s.hidden_geometry_sampling
+            .then(|| self.hidden_geometry(s.hgs_includes_relay_wall))
+            .flatten()
+    }
+
     /// −1 where `flip_normals` turns shape `shape`'s normals, else 1.
     #[inline]
     pub fn normal_sign(&self, shape: usize) -> f32 {

@@ -252,3 +252,11 @@ def test_ply_and_relative_paths(tmp_path):
 </scene>"""
     (tmp_path / "scene.xml").write_text(xml)
     assert np.array_equal(nlos_rs.render(str(tmp_path / "scene.xml"), progress=False)[1], ref)
+
+
+def test_hidden_geometry_sampling_without_hidden_geometry_names_its_key():
+    # The relay wall alone: hidden-geometry sampling has nothing of area to draw from.
+    scene = small()
+    del scene["z"]
+    with pytest.raises(nlos_rs.SceneError, match="nlos_hidden_geometry_sampling.*no hidden geometry"):
+        nlos_rs.render(scene, progress=False)
