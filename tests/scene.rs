@@ -1049,7 +1049,7 @@ fn clear_views_answer_as_the_rays_do() {
     use nlos_rs::math::Frame;
     use nlos_rs::sampling::square_to_cosine_hemisphere;
     let mut rng = Sampler::new(5, 0, 0);
-    let (mut checked, mut open_checked, mut flagged_scenes) = (0u64, 0u64, 0);
+    let (mut checked, mut open_checked, mut flagged_scenes, mut ends) = (0u64, 0u64, 0, 0u64);
     for case in 0..40 {
         let mut p = scene_props(vec![], vec![]);
         let mut r = |lo: f64, hi: f64| lo + (hi - lo) * rng.next_1d() as f64;
@@ -1118,6 +1118,23 @@ fn clear_views_answer_as_the_rays_do() {
                         checked += 1;
                     }
                 }
+                // A path ends at y where every side its BSDF leaves by is open: the front alone
+                // for a one-sided BSDF over flat shading, both sides otherwise.
+                let (front, back) = (
+                    clear.misses_hidden(&y, y.ng),
+                    clear.misses_hidden(&y, -y.ng),
+                );
+                let tilted = Interaction {
+                    ns: (y.ng + 0.1 * Frame::new(y.ng).to_world(Vec3A::X)).normalize(),
+                    ..y
+                };
+                assert_eq!(
+                    clear.reaches_no_hidden(&y, false),
+                    front && (back || y.ns == y.ng)
+                );
+                assert_eq!(clear.reaches_no_hidden(&y, true), front && back);
+                assert_eq!(clear.reaches_no_hidden(&tilted, false), front && back);
+                ends += clear.reaches_no_hidden(&y, false) as u64;
                 // A direction from y: cosine-weighted about either side, as the mixture draws.
                 let n = if rng.next_1d() < 0.5 { y.ng } else { -y.ng };
                 let u = rng.next_2d();
@@ -1142,7 +1159,8 @@ fn clear_views_answer_as_the_rays_do() {
         flagged_scenes += flagged as u32;
     }
     println!(
-        "{checked} connections, {open_checked} open-side rays, {flagged_scenes} scenes flagged"
+        "{checked} connections, {open_checked} open-side rays, {flagged_scenes} scenes flagged, \
+         {ends} points where paths end"
     );
-    assert!(checked > 10_000 && open_checked > 10_000 && flagged_scenes >= 20);
+    assert!(checked > 10_000 && open_checked > 10_000 && flagged_scenes >= 20 && ends > 1_000);
 }
