@@ -53,6 +53,18 @@ def glossy_wall(d):
     return d
 
 
+def plastic_sheet(**kw):
+    """A smooth-plastic square (a delta coating) facing the relay wall with a larger diffuse one
+    behind it: nothing hidden lies before the plastic, so no path goes on from it and the render
+    shares light subpaths despite the delta BSDF (its connections take the diffuse part)."""
+    d = z(**kw)
+    d["z"] = {"type": "rectangle", "to_world": Transform4f().translate([0.1, 0.0, 0.9]).rotate([1, 0, 0], 180).scale(0.3),
+              "bsdf": {"type": "plastic"}}
+    d["back"] = {"type": "rectangle", "to_world": Transform4f().translate([-0.2, 0.1, 1.4]).rotate([1, 0, 0], 180).scale(0.5),
+                 "bsdf": {"type": "diffuse"}}
+    return d
+
+
 SIMPLE = os.path.join(os.path.dirname(__file__), "..", "data", "mitransient", "transient-nlos", "nlos-z-simple.xml")
 
 CASES = {
@@ -75,6 +87,8 @@ CASES = {
     "Z exhaustive 3x3, unbounded depth": lambda **kw: z(width=3, height=3, spp=4096, capture_type="exhaustive", **kw),
     "glossy wall and hidden Z, exhaustive 3x3": lambda **kw: glossy_wall(glossy_hidden_z(
         width=3, height=3, spp=2048, capture_type="exhaustive", **kw)),
+    "plastic sheet before a diffuse one": lambda **kw: plastic_sheet(spp=4096, **kw),
+    "plastic sheet before a diffuse one, confocal": lambda **kw: plastic_sheet(spp=4096, capture_type="confocal", **kw),
     # HGRS (resampled) on the light subpath: N candidates per vertex, paid once for all points.
     "T small, five-vertex, HGRS": lambda **kw: scenes.t_nlos_2corner("small", width=6, height=6, spp=2048, filter_bounces=4,
                                                                      type="transient_nlos_path_rs", **kw),
