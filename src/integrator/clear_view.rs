@@ -176,6 +176,15 @@ fn hidden_reach(
     past
 }
 
+/// Whether a step can leave a triangle by no side with hidden geometry beyond, given which of
+/// its sides (front, back) are open: the front alone counts where `front_only` (a one-sided BSDF
+/// over flat shading), both otherwise. The one rule of [`ClearView::reaches_no_hidden`] (per
+/// vertex) and [`paths_end_on`] (per primitive, before a render).
+#[inline]
+fn dead_end(open: [bool; 2], front_only: bool) -> bool {
+    open[0] && (open[1] || front_only)
+}
+
 /// Whether no path goes on from the surfaces of the shapes `picked` selects, judged from the scene
 /// alone: each of their primitives is a triangle with no hidden geometry beyond a side a step
 /// leaves by ([`ClearView::reaches_no_hidden`]: the front alone where its shape's BSDF is
@@ -197,7 +206,7 @@ pub fn paths_end_on(
                 let past = hidden_reach(scene, hidden, i, plane, e);
                 let front_only =
                     !either_side(scene.prim_shape[i] as usize) && scene.prim_normals[i].is_none();
-                past[0] <= e && (past[1] <= e || front_only)
+                dead_end([past[0] <= e, past[1] <= e], front_only)
             })
         })
 }
@@ -307,8 +316,10 @@ impl ClearView {
     /// the path ends there with nothing lost.
     #[inline]
     pub fn reaches_no_hidden(&self, x: &Interaction, either_side: bool) -> bool {
-        self.has(x.prim, OPEN_FRONT)
-            && (self.has(x.prim, OPEN_BACK) || (!either_side && x.ns == x.ng))
+        dead_end(
+            [self.has(x.prim, OPEN_FRONT), self.has(x.prim, OPEN_BACK)],
+            !either_side && x.ns == x.ng,
+        )
     }
 
     /// [`Self::misses_hidden`] for a cosine-weighted direction about `n` from the square sample
