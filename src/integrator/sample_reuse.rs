@@ -53,7 +53,8 @@ pub fn shares_samples(scene: &Scene) -> bool {
         && s.hidden_geometry_sampling
         && !s.hgs_rroulette
         && s.hgs_max_depth.is_none()
-        && delta_paths_end(scene)
+        && *scene.delta_paths_end[s.hgs_includes_relay_wall as usize]
+            .get_or_init(|| delta_paths_end(scene))
 }
 
 /// Whether no path goes on from a surface whose BSDF has a delta component (true where none has).

@@ -550,6 +550,7 @@ impl Scene {
             meter,
             setup,
             hidden: Default::default(),
+            delta_paths_end: Default::default(),
             prepared: Default::default(),
         })
     }
