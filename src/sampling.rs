@@ -116,11 +116,12 @@ impl Sampler {
         self.ld.is_none()
     }
     /// How many samples in a row, at most `max`, `down` turns down by their first random
-    /// numbers (`skip` 2D points, then the one `down` judges); their numbers are taken, and none
-    /// of the next sample's. Samples follow one another in the stream of an independent sampler
-    /// only (a low-discrepancy one starts each by its index): for one, `max` is at most 1.
+    /// numbers (`skip` 2D points, then the pair `down` judges, as [`Self::next_pair`] draws it);
+    /// their numbers are taken, and none of the next sample's. Samples follow one another in the
+    /// stream of an independent sampler only (a low-discrepancy one starts each by its index):
+    /// for one, `max` is at most 1.
     #[inline(always)]
-    pub fn turned_down(&mut self, max: u64, skip: usize, down: impl Fn(Vec2) -> bool) -> u64 {
+    pub fn turned_down(&mut self, max: u64, skip: usize, down: impl Fn(u32, u32) -> bool) -> u64 {
         debug_assert!(max <= 1 || self.is_independent());
         let mut n = 0;
         if self.ld.is_none() {
@@ -131,9 +132,9 @@ impl Sampler {
                 for _ in 0..2 * skip {
                     ahead.next_u32();
                 }
-                // `next_2d`'s order: x, then y.
-                let x = unit(ahead.next_u32());
-                if !down(Vec2::new(x, unit(ahead.next_u32()))) {
+                // `next_pair`'s order: x, then y.
+                let x = ahead.next_u32();
+                if !down(x, ahead.next_u32()) {
                     break;
                 }
                 rng = ahead;
@@ -145,7 +146,8 @@ impl Sampler {
             for _ in 0..skip {
                 ahead.next_2d();
             }
-            if down(ahead.next_2d()) {
+            let (x, y) = ahead.next_pair();
+            if down(x, y) {
                 *self = ahead;
                 n = 1;
             }

@@ -123,8 +123,8 @@ fn streams_are_reproducible_and_distinct() {
 /// before the judged one, and for a low-discrepancy sampler (one sample at most).
 #[test]
 fn turned_down_runs_take_the_numbers_of_their_samples() {
-    // Asymmetric in x and y, so that the order of a point's two numbers counts.
-    let down = |u: Vec2| u.x + 0.5 * u.y < 1.0;
+    // Asymmetric in x and y, so that the order of a pair's two numbers counts.
+    let down = |x: u32, y: u32| unit(x) + 0.5 * unit(y) < 1.0;
     for skip in [0, 1] {
         let (mut run, mut one) = (
             Sampler::new(5, 6, skip as u64),
@@ -138,7 +138,8 @@ fn turned_down_runs_take_the_numbers_of_their_samples() {
             while m < 7 {
                 let mut ahead = one.clone();
                 (0..skip).for_each(|_| _ = ahead.next_2d());
-                if !down(ahead.next_2d()) {
+                let (x, y) = ahead.next_pair();
+                if !down(x, y) {
                     break;
                 }
                 (one, m) = (ahead, m + 1);
@@ -161,7 +162,8 @@ fn turned_down_runs_take_the_numbers_of_their_samples() {
         let n = ld.turned_down(1, 1, down);
         let mut ahead = reference.clone();
         ahead.next_2d();
-        let took = down(ahead.next_2d());
+        let (x, y) = ahead.next_pair();
+        let took = down(x, y);
         if took {
             reference = ahead;
         }

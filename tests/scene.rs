@@ -1036,6 +1036,95 @@ fn camera_footprint_cones_turn_down_only_rays_that_meet_nothing() {
     assert!(hits > 0 && turned_down > held * 40 / 2);
 }
 
+/// A hidden-geometry draw judged to face away from a point by its first uniform alone
+/// (`AreaSampler::faces_away`, which lets a scan point's paths end before the point is made) faces
+/// away wherever its second uniform puts it: the cosine at the drawn point towards the point, with
+/// its shading normal, as `HiddenEdge` computes it, is below zero. Over random cubes and
+/// rectangles, flipped or not, with flat shading or vertex normals tilted up to about 23°, seen
+/// from random points and from points on the surfaces; and the judgement is not idle: on flat triangles it turns down every draw
+/// whose cosine is below −0.01.
+#[test]
+fn draws_judged_to_face_away_do() {
+    use nlos_rs::math::Frame;
+    let mut rng = Sampler::new(11, 0, 0);
+    let (mut judged, mut flat_away, mut flat_caught, mut tilted_judged) = (0u64, 0u64, 0u64, 0u64);
+    for case in 0..24 {
+        let mut p = scene_props(vec![], vec![]);
+        let mut r = |lo: f64, hi: f64| lo + (hi - lo) * rng.next_1d() as f64;
+        for k in 0..1 + case % 3 {
+            let m = DMat4::from_translation(DVec3::new(r(-1.0, 1.0), r(-1.0, 1.0), r(0.3, 2.0)))
+                * DMat4::from_rotation_x(r(-3.0, 3.0))
+                * DMat4::from_rotation_y(r(-3.0, 3.0))
+                * DMat4::from_scale(DVec3::splat(r(0.05, 0.5)));
+            let plugin = ["cube", "rectangle"][(case + k) % 2];
+            let flip = Value::Bool((case / 2 + k) % 2 == 1);
+            p.insert(
+                format!("extra{k}"),
+                obj(
+                    plugin,
+                    vec![("to_world", Value::Matrix(m)), ("flip_normals", flip)],
+                ),
+            )
+            .unwrap();
+        }
+        let mut scene = load(&p);
+        let tilted = case % 2 == 1;
+        if tilted {
+            for i in 0..scene.prims.len() {
+                if let nlos_rs::geometry::Prim::Triangle { n, .. } = scene.prims[i] {
+                    let f = Frame::new(n);
+                    let mut tilt = || {
+                        let (a, b) = (rng.next_1d() * 0.6 - 0.3, rng.next_1d() * 0.6 - 0.3);
+                        (n + f.to_world(Vec3A::new(a, b, 0.0))).normalize()
+                    };
+                    scene.prim_normals[i] = Some([tilt(), tilt(), tilt()]);
+                }
+            }
+        }
+        let hg = AreaSampler::new(&scene, |_| true).expect("area");
+        assert!(hg.judges_facing());
+        for k in 0..100 {
+            // Every other point on the surfaces themselves (a scan point on the relay wall, in
+            // the plane of the wall's own triangles): where rounding alone decides.
+            let q = if k % 2 == 0 {
+                hg.sample(&scene, &mut rng).p
+            } else {
+                Vec3A::new(
+                    rng.next_1d() * 4.0 - 2.0,
+                    rng.next_1d() * 4.0 - 2.0,
+                    rng.next_1d() * 4.0 - 1.0,
+                )
+            };
+            for _ in 0..100 {
+                let mut ahead = rng.clone();
+                let away = hg.faces_away(ahead.next_pair().0, q);
+                // The same pair draws the point.
+                let y = hg.sample(&scene, &mut rng);
+                let v = y.p - q;
+                let r = v.length_squared().sqrt();
+                let cos_y = y.ns.dot(-(v / r));
+                if away {
+                    assert!(
+                        cos_y < 0.0,
+                        "case {case}: judged away at {q} but cos {cos_y}"
+                    );
+                    judged += 1;
+                    tilted_judged += u64::from(tilted);
+                }
+                if !tilted && cos_y < -0.01 {
+                    flat_away += 1;
+                    flat_caught += u64::from(away);
+                }
+            }
+        }
+    }
+    println!(
+        "judged {judged} (tilted {tilted_judged}); flat away {flat_away}, caught {flat_caught}"
+    );
+    assert!(judged > 50_000 && tilted_judged > 10_000);
+    assert_eq!(flat_caught, flat_away);
+}
+
 /// The clear views answer as the rays would: a triangle flagged as seen whole from the scan
 /// points (or the laser spots) is unoccluded from each of them, both ways round, at random points
 /// of it; a ray leaving a triangle on a side flagged open meets no hidden geometry, and the test

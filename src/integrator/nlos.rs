@@ -19,14 +19,29 @@ use crate::error::{NlosError, Result};
 use crate::geometry::{Interaction, Prim};
 use crate::math::{COS_EPS, Spectrum};
 use crate::parallel::map_indices;
-use crate::sampling::Sampler;
+use crate::sampling::{Sampler, unit};
 use crate::scene::{AreaSampler, Scene};
 use crate::sensor::Camera;
 use crate::settings::{CaptureType, NlosSettings};
-use glam::Vec3A;
+use glam::{Vec2, Vec3A};
 use std::ops::Range;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
+
+/// What a pixel's paths draw first, where that draw alone may end them before anything else is
+/// done ([`Tracer::turned_down`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum FirstDraw {
+    /// Nothing judged: every sample begins its path.
+    Traced,
+    /// The first direction, by the BSDF about the pixel's cone, which turns down directions that
+    /// meet nothing ([`NlosTracer::bare_first_vertex`]).
+    Cone,
+    /// The first hidden vertex, drawn over the hidden geometry from the scan point, which ends the
+    /// path where it surely faces away from the scan point ([`AreaSampler::faces_away`];
+    /// [`NlosTracer::hidden_first`]).
+    Hidden,
+}
 
 /// The edge x → y between two surface points, as a hidden-geometry step (y drawn uniformly over an
 /// area A) sees it: its length r, r², unit direction w and the cosine at y, if x faces y and y
@@ -202,9 +217,9 @@ pub struct NlosTracer<'a> {
     irradiance: Spectrum,
     /// The scan points, laser spots and cones.
     pub(super) scan: Arc<ScanSetup>,
-    /// Per pixel, whether its cone judges a path's first direction before anything else is
-    /// done ([`Tracer::turned_down`]).
-    cone_first: Vec<bool>,
+    /// Per pixel, what judges a path's first draw before anything else is done
+    /// ([`Tracer::turned_down`]).
+    first_draw: Vec<FirstDraw>,
     /// A perspective camera as the sensor, instead of the scan points.
     pub(super) camera: Option<&'a Camera>,
     /// Set by the caller to stop the render.
@@ -249,7 +264,7 @@ impl<'a> NlosTracer<'a> {
         };
         let mut tracer = Self {
             scan,
-            cone_first: Vec::new(),
+            first_draw: Vec::new(),
             scene,
             settings,
             laser: &nlos.laser,
@@ -266,14 +281,24 @@ impl<'a> NlosTracer<'a> {
             hidden,
             guide: None,
         };
+        // A first hidden vertex can be judged from its first uniform where the sampler judges
+        // facing and every hidden surface is one-sided (`HiddenEdge`'s test).
+        let judged = hidden.is_some_and(|hg| {
+            hg.judges_facing()
+                && (0..scene.shapes.len()).all(|s| !(tracer.behind[s] && hg.covers(s as u32)))
+        });
         let scan = &tracer.scan;
-        tracer.cone_first = scan
+        tracer.first_draw = scan
             .covered
             .iter()
             .zip(&scan.points)
             .enumerate()
-            .map(|(pixel, (&covered, point))| {
-                covered && point.is_some_and(|(x, wi, _)| tracer.bare_first_vertex(pixel, &x, wi))
+            .map(|(pixel, (&covered, point))| match point {
+                Some((x, wi, _)) if covered && tracer.bare_first_vertex(pixel, x, *wi) => {
+                    FirstDraw::Cone
+                }
+                _ if judged && tracer.hidden_first(pixel) => FirstDraw::Hidden,
+                _ => FirstDraw::Traced,
             })
             .collect();
         // The guide's pilot: a quarter of the render's light subpaths, 256 to 4,096 points.
@@ -526,18 +551,7 @@ impl<'a> NlosTracer<'a> {
     /// pixel's cone wherever the vertex lies, and draws nothing before it.
     fn bare_first_vertex(&self, pixel: usize, x: &Interaction, wi: Vec3A) -> bool {
         let shape = x.shape as usize;
-        let (all_delta, some_delta) = self.delta[shape];
-        // `bounce`'s own tests at loop depth 0; a connection between points of one flat sheet
-        // carries nothing.
-        let connects_nothing = !self.connects(0, all_delta)
-            || (self.settings.laser_sampling
-                && self.flat[shape]
-                && self
-                    .scan
-                    .capture
-                    .spots
-                    .iter()
-                    .all(|s| s.it.shape == x.shape));
+        let some_delta = self.delta[shape].1;
         let Some(cone) = self.scan.scan_cones[pixel].as_ref() else {
             return false;
         };
@@ -560,11 +574,46 @@ impl<'a> NlosTracer<'a> {
                     })
             }
         };
-        connects_nothing
+        self.bare_first_bounce(x)
             && drawn_about_cone
-            && !self.ends_before_connecting(0)
-            && !self.ends_after_connecting(0)
             && self.hidden_technique(0, some_delta).is_none()
+    }
+
+    /// Whether a scan point's paths draw their first hidden vertex before anything else, by plain
+    /// hidden-geometry sampling (no HGRS candidates, no technique roulette) from a first bounce
+    /// that connects nothing and whose path goes on to that draw.
+    fn hidden_first(&self, pixel: usize) -> bool {
+        let st = self.settings;
+        let (Some(Some(v)), None) = (self.scan.scan_vertices.get(pixel), self.camera) else {
+            return false;
+        };
+        self.bare_first_bounce(&v.it)
+            && self
+                .hidden_technique(0, self.delta[v.it.shape as usize].1)
+                .is_some()
+            && st.hgrs.is_none()
+            && !st.hgs_rroulette
+            && !self
+                .scan
+                .clear
+                .reaches_no_hidden(&v.it, self.scatters_behind(&v.it))
+    }
+
+    /// `bounce`'s own tests at loop depth 0 for a first vertex `x`: it connects nothing (a
+    /// connection between points of one flat sheet carries nothing) and its path neither ends
+    /// before connecting nor after.
+    fn bare_first_bounce(&self, x: &Interaction) -> bool {
+        let shape = x.shape as usize;
+        let connects_nothing = !self.connects(0, self.delta[shape].0)
+            || (self.settings.laser_sampling
+                && self.flat[shape]
+                && self
+                    .scan
+                    .capture
+                    .spots
+                    .iter()
+                    .all(|s| s.it.shape == x.shape));
+        connects_nothing && !self.ends_before_connecting(0) && !self.ends_after_connecting(0)
     }
 
     /// Contribution depth of a vertex at loop depth d: d + 2 with laser sampling (the spot is an
@@ -686,14 +735,27 @@ impl Tracer for NlosTracer<'_> {
     /// sample) and takes them only if the path ends.
     #[inline(always)]
     fn turned_down(&self, pixel: usize, rng: &mut Sampler, max: u64) -> u64 {
-        if max == 0 || !self.cone_first[pixel] {
+        if max == 0 {
             return 0;
         }
-        let Some(cone) = self.scan.scan_cones[pixel].as_ref() else {
-            return 0;
-        };
-        let jitter = usize::from(self.camera.is_some());
-        rng.turned_down(max, jitter, |u| !cone.may_reach_square(u))
+        match self.first_draw[pixel] {
+            FirstDraw::Traced => 0,
+            FirstDraw::Cone => {
+                let Some(cone) = self.scan.scan_cones[pixel].as_ref() else {
+                    return 0;
+                };
+                let jitter = usize::from(self.camera.is_some());
+                rng.turned_down(max, jitter, |x, y| {
+                    !cone.may_reach_square(Vec2::new(unit(x), unit(y)))
+                })
+            }
+            FirstDraw::Hidden => {
+                let (Some(hg), Some(v)) = (self.hidden, &self.scan.scan_vertices[pixel]) else {
+                    return 0;
+                };
+                rng.turned_down(max, 0, |x, _| hg.faces_away(x, v.it.p))
+            }
+        }
     }
 
     /// A path of `pixel`: its first vertex is found by its first bounce (a scan point is read

@@ -5,7 +5,7 @@
 use super::Scene;
 use crate::geometry::{Interaction, Prim};
 use crate::sampling::{Discrete, Sampler, square_to_uniform_triangle, unit};
-use glam::{Vec2, Vec3A};
+use glam::{Vec2, Vec3A, Vec4};
 
 /// One primitive as a draw needs it, in one 64-byte cache line, so that a draw from a large mesh
 /// touches two lines (the alias-table bucket and this entry) instead of five arrays of the scene.
@@ -42,13 +42,77 @@ impl Entry {
     }
 }
 
+/// Where a primitive faces away whole from a point p, as four half-spaces n·p < d (lane k of
+/// `n[axis]` and `d`): its face plane and, for a triangle with vertex normals, one per vertex
+/// normal n_i with d = min over its vertices v_j of n_i·v_j. Inside all four, every point y of the
+/// triangle has a shading normal (Σ b_i n_i, normalised, with y = Σ b_j v_j) whose cosine towards
+/// p, Σ_ij b_i b_j n_i·(p − v_j) over the normal's length, is below zero: a convex combination of
+/// negative terms. The bounds hold a rounding margin: [`AreaSampler::faces_away`].
+#[repr(C, align(64))]
+#[derive(Clone, Copy)]
+struct Away {
+    n: [[f32; 4]; 3],
+    d: [f32; 4],
+}
+
+impl Away {
+    /// Never away (a sphere or a disk, a degenerate triangle, or vertex normals more than 90°
+    /// apart, whose sum may nearly cancel).
+    const NEVER: Self = Self {
+        n: [[0.0; 4]; 3],
+        d: [f32::NEG_INFINITY; 4],
+    };
+
+    /// For primitive `i`, the bounds lowered by `margin`.
+    fn new(scene: &Scene, i: usize, margin: f64) -> Self {
+        let Prim::Triangle { v, n } = &scene.prims[i] else {
+            return Self::NEVER;
+        };
+        let sign = scene.normal_sign(scene.prim_shape[i] as usize) as f64;
+        let v = v.map(|v| v.as_dvec3());
+        let unit = |n: Vec3A| (n.as_dvec3() * sign).try_normalize();
+        let face = unit(*n);
+        let normals = match scene.prim_normals[i] {
+            Some(ns) => ns.map(unit),
+            None => [face; 3],
+        };
+        let (Some(face), [Some(a), Some(b), Some(c)]) = (face, normals) else {
+            return Self::NEVER;
+        };
+        if a.dot(b) <= 0.0 || b.dot(c) <= 0.0 || c.dot(a) <= 0.0 {
+            return Self::NEVER;
+        }
+        let mut away = Self::NEVER;
+        for (k, n) in [face, a, b, c].into_iter().enumerate() {
+            let d = v.iter().map(|v| n.dot(*v)).fold(f64::INFINITY, f64::min) - margin;
+            for axis in 0..3 {
+                away.n[axis][k] = n[axis] as f32;
+            }
+            away.d[k] = d as f32;
+        }
+        away
+    }
+}
+
 /// Uniform area sampling over a set of primitives: p_A = 1 / A_total.
 pub struct AreaSampler {
     dist: Discrete,
     entries: Vec<Entry>,
     /// Per shape of the scene: whether its primitives are sampled.
     covered: Vec<bool>,
+    /// Per entry, where its primitive faces away whole ([`Self::faces_away`]); empty beyond
+    /// [`MAX_AWAY`] primitives.
+    away: Vec<Away>,
 }
+
+/// Most primitives whose [`Away`] bounds a sampler keeps (64 bytes each: 4 MB).
+const MAX_AWAY: usize = 1 << 16;
+
+/// Rounding margin of [`AreaSampler::faces_away`], relative to the coordinates' magnitude: the
+/// cosine at a drawn point is then below −FACING_MARGIN/√3 (as the bounds of [`Away`] give it),
+/// some eighty times the f32 rounding of the point (its barycentric sum), its shading normal,
+/// the direction and the cosine.
+const FACING_MARGIN: f32 = 1e-4;
 
 impl AreaSampler {
     /// Over the primitives of the shapes `keep` accepts; `None` if they have no area.
@@ -61,10 +125,25 @@ impl AreaSampler {
             .map(|&i| scene.prims[i].area() as f64)
             .collect();
         let entries = prims.iter().map(|&i| Entry::new(scene, i)).collect();
+        let away = if prims.len() <= MAX_AWAY {
+            // The margin's share from the primitives' own coordinates.
+            let reach = prims
+                .iter()
+                .flat_map(|&i| {
+                    let (lo, hi) = scene.prims[i].bounds();
+                    [lo.abs().max_element(), hi.abs().max_element()]
+                })
+                .fold(0.0, f32::max);
+            let margin = FACING_MARGIN as f64 * (1.0 + reach as f64);
+            prims.iter().map(|&i| Away::new(scene, i, margin)).collect()
+        } else {
+            Vec::new()
+        };
         Some(Self {
             dist: Discrete::new(&weights)?,
             entries,
             covered: (0..scene.shapes.len()).map(keep).collect(),
+            away,
         })
     }
 
@@ -120,6 +199,26 @@ impl AreaSampler {
             prim: e.v0[3].to_bits(),
         };
         (it, k)
+    }
+
+    /// Whether [`Self::faces_away`] can judge this sampler's draws.
+    pub fn judges_facing(&self) -> bool {
+        !self.away.is_empty()
+    }
+
+    /// Whether the point [`Self::sample`] would draw from the first uniform `x` surely faces away
+    /// from `p`, whatever the second uniform: its shading normal's cosine towards `p` is below
+    /// zero by more than rounding can move it ([`Away`]). A hidden-geometry draw from `p` onto a
+    /// one-sided surface ends there (`HiddenEdge`), so it can be turned down from `x` alone,
+    /// before the point is made. False for every draw where [`Self::judges_facing`] is false.
+    #[inline(always)]
+    pub fn faces_away(&self, x: u32, p: Vec3A) -> bool {
+        let Some(a) = self.away.get(self.dist.sample(x).0) else {
+            return false;
+        };
+        let dot = Vec4::from(a.n[0]) * p.x + Vec4::from(a.n[1]) * p.y + Vec4::from(a.n[2]) * p.z;
+        let margin = FACING_MARGIN * p.abs().max_element();
+        dot.cmplt(Vec4::from(a.d) - margin).all()
     }
 
     /// The distribution by area over the primitives (for [`Self::sample_with`]).
