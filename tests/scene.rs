@@ -1041,7 +1041,8 @@ fn camera_footprint_cones_turn_down_only_rays_that_meet_nothing() {
 /// away wherever its second uniform puts it: the cosine at the drawn point towards the point, with
 /// its shading normal, as `HiddenEdge` computes it, is below zero. Over random cubes and
 /// rectangles, flipped or not, with flat shading or vertex normals tilted up to about 23°, seen
-/// from random points and from points on the surfaces; and the judgement is not idle: on flat triangles it turns down every draw
+/// from random points, from balls about them (a camera pixel's footprint) and from points on the
+/// surfaces; and the judgement is not idle: on flat triangles it turns down every draw from a point
 /// whose cosine is below −0.01.
 #[test]
 fn draws_judged_to_face_away_do() {
@@ -1095,23 +1096,28 @@ fn draws_judged_to_face_away_do() {
                     rng.next_1d() * 4.0 - 1.0,
                 )
             };
+            // Every fourth point judged for a ball about it (a camera pixel's footprint), each
+            // draw checked from a point in the ball.
+            let radius = if k % 4 == 1 { 0.2 * rng.next_1d() } else { 0.0 };
             for _ in 0..100 {
                 let mut ahead = rng.clone();
-                let away = hg.faces_away(ahead.next_pair().0, q);
+                let away = hg.faces_away(ahead.next_pair().0, q, radius);
                 // The same pair draws the point.
                 let y = hg.sample(&scene, &mut rng);
-                let v = y.p - q;
+                let offset = Vec3A::new(rng.next_1d(), rng.next_1d(), rng.next_1d()) - 0.5;
+                let seen_from = q + offset.normalize_or_zero() * radius * rng.next_1d().sqrt();
+                let v = y.p - seen_from;
                 let r = v.length_squared().sqrt();
                 let cos_y = y.ns.dot(-(v / r));
                 if away {
                     assert!(
                         cos_y < 0.0,
-                        "case {case}: judged away at {q} but cos {cos_y}"
+                        "case {case}: judged away at {seen_from} but cos {cos_y}"
                     );
                     judged += 1;
                     tilted_judged += u64::from(tilted);
                 }
-                if !tilted && cos_y < -0.01 {
+                if !tilted && radius == 0.0 && cos_y < -0.01 {
                     flat_away += 1;
                     flat_caught += u64::from(away);
                 }

@@ -37,9 +37,9 @@ enum FirstDraw {
     /// The first direction, by the BSDF about the pixel's cone, which turns down directions that
     /// meet nothing ([`NlosTracer::bare_first_vertex`]).
     Cone,
-    /// The first hidden vertex, drawn over the hidden geometry from the scan point, which ends the
-    /// path where it surely faces away from the scan point ([`AreaSampler::faces_away`];
-    /// [`NlosTracer::hidden_first`]).
+    /// The first hidden vertex, drawn over the hidden geometry from the scan point (or the camera
+    /// pixel's footprint), which ends the path where it surely faces away from there
+    /// ([`AreaSampler::faces_away`]; [`NlosTracer::hidden_first`]).
     Hidden,
 }
 
@@ -297,7 +297,7 @@ impl<'a> NlosTracer<'a> {
                 Some((x, wi, _)) if covered && tracer.bare_first_vertex(pixel, x, *wi) => {
                     FirstDraw::Cone
                 }
-                _ if judged && tracer.hidden_first(pixel) => FirstDraw::Hidden,
+                Some((x, _, _)) if judged && tracer.hidden_first(pixel, x) => FirstDraw::Hidden,
                 _ => FirstDraw::Traced,
             })
             .collect();
@@ -579,24 +579,38 @@ impl<'a> NlosTracer<'a> {
             && self.hidden_technique(0, some_delta).is_none()
     }
 
-    /// Whether a scan point's paths draw their first hidden vertex before anything else, by plain
-    /// hidden-geometry sampling (no HGRS candidates, no technique roulette) from a first bounce
-    /// that connects nothing and whose path goes on to that draw.
-    fn hidden_first(&self, pixel: usize) -> bool {
+    /// Whether a pixel's paths draw their first hidden vertex before anything else (with a
+    /// camera, after the jitter of a ray that surely meets the pixel's footprint on one flat
+    /// sheet), by plain hidden-geometry sampling (no HGRS candidates, no technique roulette) from
+    /// a first bounce that connects nothing and whose path goes on to that draw, on whichever of
+    /// the sheet's triangles it lies.
+    fn hidden_first(&self, pixel: usize, x: &Interaction) -> bool {
         let st = self.settings;
-        let (Some(Some(v)), None) = (self.scan.scan_vertices.get(pixel), self.camera) else {
-            return false;
+        let behind = self.scatters_behind(x);
+        let goes_on = |prim: usize| {
+            let it = Interaction {
+                prim: prim as u32,
+                ..*x
+            };
+            !self.scan.clear.reaches_no_hidden(&it, behind)
         };
-        self.bare_first_bounce(&v.it)
+        let goes_on = match self.camera {
+            None => goes_on(x.prim as usize),
+            Some(_) => {
+                self.scan.covered[pixel]
+                    && self.scene.shapes[x.shape as usize]
+                        .prims
+                        .clone()
+                        .all(goes_on)
+            }
+        };
+        goes_on
+            && self.bare_first_bounce(x)
             && self
-                .hidden_technique(0, self.delta[v.it.shape as usize].1)
+                .hidden_technique(0, self.delta[x.shape as usize].1)
                 .is_some()
             && st.hgrs.is_none()
             && !st.hgs_rroulette
-            && !self
-                .scan
-                .clear
-                .reaches_no_hidden(&v.it, self.scatters_behind(&v.it))
     }
 
     /// `bounce`'s own tests at loop depth 0 for a first vertex `x`: it connects nothing (a
@@ -750,10 +764,13 @@ impl Tracer for NlosTracer<'_> {
                 })
             }
             FirstDraw::Hidden => {
-                let (Some(hg), Some(v)) = (self.hidden, &self.scan.scan_vertices[pixel]) else {
+                // The scan point, or any point of the camera pixel's footprint (after the jitter).
+                let (Some(hg), Some((x, _, radius))) = (self.hidden, &self.scan.points[pixel])
+                else {
                     return 0;
                 };
-                rng.turned_down(max, 0, |x, _| hg.faces_away(x, v.it.p))
+                let jitter = usize::from(self.camera.is_some());
+                rng.turned_down(max, jitter, |u, _| hg.faces_away(u, x.p, *radius))
             }
         }
     }

@@ -207,17 +207,19 @@ impl AreaSampler {
     }
 
     /// Whether the point [`Self::sample`] would draw from the first uniform `x` surely faces away
-    /// from `p`, whatever the second uniform: its shading normal's cosine towards `p` is below
-    /// zero by more than rounding can move it ([`Away`]). A hidden-geometry draw from `p` onto a
-    /// one-sided surface ends there (`HiddenEdge`), so it can be turned down from `x` alone,
-    /// before the point is made. False for every draw where [`Self::judges_facing`] is false.
+    /// from every point within `radius` of `p`, whatever the second uniform: its shading normal's
+    /// cosine towards such a point is below zero by more than rounding can move it ([`Away`]). A
+    /// hidden-geometry draw from there onto a one-sided surface ends (`HiddenEdge`), so it can be
+    /// turned down from `x` alone, before the point is made. False for every draw where
+    /// [`Self::judges_facing`] is false.
     #[inline(always)]
-    pub fn faces_away(&self, x: u32, p: Vec3A) -> bool {
+    pub fn faces_away(&self, x: u32, p: Vec3A, radius: f32) -> bool {
         let Some(a) = self.away.get(self.dist.sample(x).0) else {
             return false;
         };
         let dot = Vec4::from(a.n[0]) * p.x + Vec4::from(a.n[1]) * p.y + Vec4::from(a.n[2]) * p.z;
-        let margin = FACING_MARGIN * p.abs().max_element();
+        // The bounds' unit normals move n·p by at most the radius over the ball.
+        let margin = FACING_MARGIN * (p.abs().max_element() + radius) + radius;
         dot.cmplt(Vec4::from(a.d) - margin).all()
     }
 
