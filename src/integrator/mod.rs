@@ -96,7 +96,7 @@ pub trait Tracer: Sync {
     /// How many of the samples about to begin for `pixel`, at most `max` in a row, end at their
     /// first random numbers with nothing traced and nothing added but the
     /// [`Self::fixed_contributions`] (their first direction turned down by a cone,
-    /// [`scan_cone`]). Their numbers are taken from `rng`, and none of the next sample's. The
+    /// [`scan_cone`], or their first hidden vertex drawn onto a surface turned away). Their numbers are taken from `rng`, and none of the next sample's. The
     /// render loop asks before each [`Self::begin`] and finishes the samples counted at once.
     #[inline(always)]
     fn turned_down(&self, _pixel: usize, _rng: &mut Sampler, _max: u64) -> u64 {
