@@ -1040,7 +1040,8 @@ fn camera_footprint_cones_turn_down_only_rays_that_meet_nothing() {
 /// (`AreaSampler::faces_away`, which lets a scan point's paths end before the point is made) faces
 /// away wherever its second uniform puts it: the cosine at the drawn point towards the point, with
 /// its shading normal, as `HiddenEdge` computes it, is below zero. Over random cubes and
-/// rectangles, flipped or not, with flat shading or vertex normals tilted up to about 23°, seen
+/// rectangles, flipped or not, with flat shading or vertex normals tilted up to about 23°, some
+/// two-sided (never judged: their back is drawn as well), seen
 /// from random points, from balls about them (a camera pixel's footprint) and from points on the
 /// surfaces; and the judgement is not idle: on flat triangles it turns down every draw from a point
 /// whose cosine is below −0.01.
@@ -1049,6 +1050,7 @@ fn draws_judged_to_face_away_do() {
     use nlos_rs::math::Frame;
     let mut rng = Sampler::new(11, 0, 0);
     let (mut judged, mut flat_away, mut flat_caught, mut tilted_judged) = (0u64, 0u64, 0u64, 0u64);
+    let mut two_sided_away = 0u64;
     for case in 0..24 {
         let mut p = scene_props(vec![], vec![]);
         let mut r = |lo: f64, hi: f64| lo + (hi - lo) * rng.next_1d() as f64;
@@ -1059,16 +1061,21 @@ fn draws_judged_to_face_away_do() {
                 * DMat4::from_scale(DVec3::splat(r(0.05, 0.5)));
             let plugin = ["cube", "rectangle"][(case + k) % 2];
             let flip = Value::Bool((case / 2 + k) % 2 == 1);
-            p.insert(
-                format!("extra{k}"),
-                obj(
-                    plugin,
-                    vec![("to_world", Value::Matrix(m)), ("flip_normals", flip)],
-                ),
-            )
-            .unwrap();
+            let mut entries = vec![("to_world", Value::Matrix(m)), ("flip_normals", flip)];
+            // A third shape two-sided: draws onto it are never judged (both sides are drawn).
+            if k == 2 {
+                let twosided = obj("twosided", vec![("bsdf", obj("diffuse", vec![]))]);
+                entries.push(("bsdf", twosided));
+            }
+            p.insert(format!("extra{k}"), obj(plugin, entries)).unwrap();
         }
         let mut scene = load(&p);
+        let behind: Vec<bool> = scene
+            .shape_bsdfs(true)
+            .iter()
+            .map(|b| b.scatters_behind())
+            .collect();
+        let two_sided = |shape: u32| behind[shape as usize];
         let tilted = case % 2 == 1;
         if tilted {
             for i in 0..scene.prims.len() {
@@ -1110,6 +1117,7 @@ fn draws_judged_to_face_away_do() {
                 let r = v.length_squared().sqrt();
                 let cos_y = y.ns.dot(-(v / r));
                 if away {
+                    assert!(!two_sided(y.shape), "case {case}: a two-sided draw judged");
                     assert!(
                         cos_y < 0.0,
                         "case {case}: judged away at {seen_from} but cos {cos_y}"
@@ -1118,17 +1126,26 @@ fn draws_judged_to_face_away_do() {
                     tilted_judged += u64::from(tilted);
                 }
                 if !tilted && radius == 0.0 && cos_y < -0.01 {
-                    flat_away += 1;
-                    flat_caught += u64::from(away);
+                    if two_sided(y.shape) {
+                        two_sided_away += 1;
+                    } else {
+                        flat_away += 1;
+                        flat_caught += u64::from(away);
+                    }
                 }
             }
         }
     }
     println!(
-        "judged {judged} (tilted {tilted_judged}); flat away {flat_away}, caught {flat_caught}"
+        "judged {judged} (tilted {tilted_judged}); flat away {flat_away}, caught {flat_caught}; \
+         two-sided away {two_sided_away}"
     );
     assert!(judged > 50_000 && tilted_judged > 10_000);
     assert_eq!(flat_caught, flat_away);
+    assert!(
+        two_sided_away > 1000,
+        "{two_sided_away} two-sided draws facing away"
+    );
 }
 
 /// The clear views answer as the rays would: a triangle flagged as seen whole from the scan

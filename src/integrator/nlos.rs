@@ -281,12 +281,7 @@ impl<'a> NlosTracer<'a> {
             hidden,
             guide: None,
         };
-        // A first hidden vertex can be judged from its first uniform where the sampler judges
-        // facing and every hidden surface is one-sided (`HiddenEdge`'s test).
-        let judged = hidden.is_some_and(|hg| {
-            hg.judges_facing()
-                && (0..scene.shapes.len()).all(|s| !(tracer.behind[s] && hg.covers(s as u32)))
-        });
+        let judged = hidden.is_some_and(AreaSampler::judges_facing);
         let scan = &tracer.scan;
         tracer.first_draw = scan
             .covered

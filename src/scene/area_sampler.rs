@@ -42,7 +42,8 @@ impl Entry {
     }
 }
 
-/// Where a primitive faces away whole from a point p, as four half-spaces n·p < d (lane k of
+/// Where a primitive of a one-sided BSDF faces away whole from a point p (a hidden-geometry draw
+/// from p onto it ends there), as four half-spaces n·p < d (lane k of
 /// `n[axis]` and `d`): its face plane and, for a triangle with vertex normals, one per vertex
 /// normal n_i with d = min over its vertices v_j of n_i·v_j. Inside all four, every point y of the
 /// triangle has a shading normal (Σ b_i n_i, normalised, with y = Σ b_j v_j) whose cosine towards
@@ -56,18 +57,23 @@ struct Away {
 }
 
 impl Away {
-    /// Never away (a sphere or a disk, a degenerate triangle, or vertex normals more than 90°
-    /// apart, whose sum may nearly cancel).
+    /// Never away (a sphere or a disk, a degenerate triangle, vertex normals more than 90° apart,
+    /// whose sum may nearly cancel, or a BSDF that scatters behind its surface: `twosided`,
+    /// glass).
     const NEVER: Self = Self {
         n: [[0.0; 4]; 3],
         d: [f32::NEG_INFINITY; 4],
     };
 
-    /// For primitive `i`, the bounds lowered by `margin`.
-    fn new(scene: &Scene, i: usize, margin: f64) -> Self {
+    /// For primitive `i`, the bounds lowered by `margin`; `behind`: per shape, whether its BSDF
+    /// scatters behind its surface.
+    fn new(scene: &Scene, i: usize, margin: f64, behind: &[bool]) -> Self {
         let Prim::Triangle { v, n } = &scene.prims[i] else {
             return Self::NEVER;
         };
+        if behind[scene.prim_shape[i] as usize] {
+            return Self::NEVER;
+        }
         let sign = scene.normal_sign(scene.prim_shape[i] as usize) as f64;
         let v = v.map(|v| v.as_dvec3());
         let unit = |n: Vec3A| (n.as_dvec3() * sign).try_normalize();
@@ -101,7 +107,7 @@ pub struct AreaSampler {
     /// Per shape of the scene: whether its primitives are sampled.
     covered: Vec<bool>,
     /// Per entry, where its primitive faces away whole ([`Self::faces_away`]); empty beyond
-    /// [`MAX_AWAY`] primitives.
+    /// [`MAX_AWAY`] primitives and where none can.
     away: Vec<Away>,
 }
 
@@ -135,7 +141,18 @@ impl AreaSampler {
                 })
                 .fold(0.0, f32::max);
             let margin = FACING_MARGIN as f64 * (1.0 + reach as f64);
-            prims.iter().map(|&i| Away::new(scene, i, margin)).collect()
+            let behind: Vec<bool> = scene
+                .shapes
+                .iter()
+                .map(|s| scene.bsdfs[s.bsdf].resolve(true).scatters_behind())
+                .collect();
+            let away: Vec<Away> = prims
+                .iter()
+                .map(|&i| Away::new(scene, i, margin, &behind))
+                .collect();
+            // None that can be away: nothing to judge.
+            let some = away.iter().any(|a| a.d[0] > f32::NEG_INFINITY);
+            if some { away } else { Vec::new() }
         } else {
             Vec::new()
         };
@@ -206,12 +223,12 @@ impl AreaSampler {
         !self.away.is_empty()
     }
 
-    /// Whether the point [`Self::sample`] would draw from the first uniform `x` surely faces away
-    /// from every point within `radius` of `p`, whatever the second uniform: its shading normal's
-    /// cosine towards such a point is below zero by more than rounding can move it ([`Away`]). A
-    /// hidden-geometry draw from there onto a one-sided surface ends (`HiddenEdge`), so it can be
-    /// turned down from `x` alone, before the point is made. False for every draw where
-    /// [`Self::judges_facing`] is false.
+    /// Whether the point [`Self::sample`] would draw from the first uniform `x` lies on a surface
+    /// of a one-sided BSDF that surely faces away from every point within `radius` of `p`,
+    /// whatever the second uniform: its shading normal's cosine towards such a point is below
+    /// zero by more than rounding can move it ([`Away`]). A hidden-geometry draw from there ends
+    /// (`HiddenEdge`), so it can be turned down from `x` alone, before the point is made. False
+    /// for every draw where [`Self::judges_facing`] is false.
     #[inline(always)]
     pub fn faces_away(&self, x: u32, p: Vec3A, radius: f32) -> bool {
         let Some(a) = self.away.get(self.dist.sample(x).0) else {
