@@ -739,9 +739,9 @@ impl Tracer for NlosTracer<'_> {
 
     /// How many samples of `pixel` in a row, at most `max`, end at their first random numbers,
     /// before anything is traced, where the first vertex is needed for nothing else: their cone
-    /// turns the path's first direction down ([`Self::bare_first_vertex`]), or their first
+    /// turns the path's first direction down (`bare_first_vertex`), or their first
     /// hidden-geometry draw lands on a surface turned away from the pixel's point or footprint
-    /// ([`Self::hidden_first`]). It reads the random numbers each path would draw (with a camera
+    /// (`hidden_first`). It reads the random numbers each path would draw (with a camera
     /// the jitter, then the BSDF's square sample or the draw's pair) and takes them only if the
     /// path ends.
     #[inline(always)]

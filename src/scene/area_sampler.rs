@@ -1,6 +1,8 @@
 //! Uniform sampling of scene surfaces by area: a point on a set of shapes with density
 //! 1/A_total. Hidden-geometry sampling (mitransient-model §3.3) draws from the hidden shapes, and
-//! next-event estimation from an area light's shape.
+//! next-event estimation from an area light's shape. A draw can also be judged from its first
+//! uniform alone: whether the point it makes surely faces away from a given point
+//! ([`AreaSampler::faces_away`]), which lets a scan point's sample end before it begins.
 
 use super::Scene;
 use crate::geometry::{Interaction, Prim};
@@ -226,7 +228,7 @@ impl AreaSampler {
     /// Whether the point [`Self::sample`] would draw from the first uniform `x` lies on a surface
     /// of a one-sided BSDF that surely faces away from every point within `radius` of `p`,
     /// whatever the second uniform: its shading normal's cosine towards such a point is below
-    /// zero by more than rounding can move it ([`Away`]). A hidden-geometry draw from there ends
+    /// zero by more than rounding can move it (`Away`). A hidden-geometry draw from there ends
     /// (`HiddenEdge`), so it can be turned down from `x` alone, before the point is made. False
     /// for every draw where [`Self::judges_facing`] is false.
     #[inline(always)]
