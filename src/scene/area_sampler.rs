@@ -144,9 +144,9 @@ impl AreaSampler {
                 .fold(0.0, f32::max);
             let margin = FACING_MARGIN as f64 * (1.0 + reach as f64);
             let behind: Vec<bool> = scene
-                .shapes
+                .shape_bsdfs(true)
                 .iter()
-                .map(|s| scene.bsdfs[s.bsdf].resolve(true).scatters_behind())
+                .map(|b| b.scatters_behind())
                 .collect();
             let away: Vec<Away> = prims
                 .iter()
