@@ -282,6 +282,11 @@ impl<'a> NlosTracer<'a> {
             guide: None,
         };
         let judged = hidden.is_some_and(AreaSampler::judges_facing);
+        // Per shape a first vertex may lie on (its tests run over every laser spot: once per
+        // shape, not per pixel).
+        let bare: Vec<bool> = (0..scene.shapes.len())
+            .map(|s| tracer.bare_first_bounce(s))
+            .collect();
         let scan = &tracer.scan;
         tracer.first_draw = scan
             .covered
@@ -289,6 +294,7 @@ impl<'a> NlosTracer<'a> {
             .zip(&scan.points)
             .enumerate()
             .map(|(pixel, (&covered, point))| match point {
+                Some((x, _, _)) if !bare[x.shape as usize] => FirstDraw::Traced,
                 Some((x, wi, _)) if covered && tracer.bare_first_vertex(pixel, x, *wi) => {
                     FirstDraw::Cone
                 }
@@ -542,8 +548,9 @@ impl<'a> NlosTracer<'a> {
     /// point, or a camera pixel whose every ray meets one flat sheet (of which `x` is the
     /// central ray's point, `wi` the direction back from it). The first bounce connects nothing
     /// (the laser spots lie on that sheet, or no such connection is kept, or the fixed
-    /// contributions pass it), samples that direction from the BSDF about the normal of the
-    /// pixel's cone wherever the vertex lies, and draws nothing before it.
+    /// contributions pass it: [`Self::bare_first_bounce`], which the caller has checked), samples
+    /// that direction from the BSDF about the normal of the pixel's cone wherever the vertex
+    /// lies, and draws nothing before it.
     fn bare_first_vertex(&self, pixel: usize, x: &Interaction, wi: Vec3A) -> bool {
         let shape = x.shape as usize;
         let some_delta = self.delta[shape].1;
@@ -569,16 +576,15 @@ impl<'a> NlosTracer<'a> {
                     })
             }
         };
-        self.bare_first_bounce(x)
-            && drawn_about_cone
-            && self.hidden_technique(0, some_delta).is_none()
+        drawn_about_cone && self.hidden_technique(0, some_delta).is_none()
     }
 
     /// Whether a pixel's paths draw their first hidden vertex before anything else (with a
     /// camera, after the jitter of a ray that surely meets the pixel's footprint on one flat
     /// sheet), by plain hidden-geometry sampling (no HGRS candidates, no technique roulette) from
-    /// a first bounce that connects nothing and whose path goes on to that draw, on whichever of
-    /// the sheet's triangles it lies.
+    /// a first bounce that connects nothing ([`Self::bare_first_bounce`], which the caller has
+    /// checked) and whose path goes on to that draw, on whichever of the sheet's triangles it
+    /// lies.
     fn hidden_first(&self, pixel: usize, x: &Interaction) -> bool {
         let st = self.settings;
         let behind = self.scatters_behind(x);
@@ -600,7 +606,6 @@ impl<'a> NlosTracer<'a> {
             }
         };
         goes_on
-            && self.bare_first_bounce(x)
             && self
                 .hidden_technique(0, self.delta[x.shape as usize].1)
                 .is_some()
@@ -608,11 +613,10 @@ impl<'a> NlosTracer<'a> {
             && !st.hgs_rroulette
     }
 
-    /// `bounce`'s own tests at loop depth 0 for a first vertex `x`: it connects nothing (a
-    /// connection between points of one flat sheet carries nothing) and its path neither ends
-    /// before connecting nor after.
-    fn bare_first_bounce(&self, x: &Interaction) -> bool {
-        let shape = x.shape as usize;
+    /// `bounce`'s own tests at loop depth 0 for a first vertex on shape `shape`: it connects
+    /// nothing (a connection between points of one flat sheet carries nothing) and its path
+    /// neither ends before connecting nor after.
+    fn bare_first_bounce(&self, shape: usize) -> bool {
         let connects_nothing = !self.connects(0, self.delta[shape].0)
             || (self.settings.laser_sampling
                 && self.flat[shape]
@@ -621,7 +625,7 @@ impl<'a> NlosTracer<'a> {
                     .capture
                     .spots
                     .iter()
-                    .all(|s| s.it.shape == x.shape));
+                    .all(|s| s.it.shape as usize == shape));
         connects_nothing && !self.ends_before_connecting(0) && !self.ends_after_connecting(0)
     }
 
