@@ -39,6 +39,7 @@ pub mod sampling;
 pub mod scene;
 pub mod sensor;
 pub mod settings;
+pub mod simd;
 pub mod spad;
 pub mod spectrum;
 pub mod xml;

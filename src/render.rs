@@ -336,6 +336,13 @@ impl Plan {
         Ok(())
     }
 
+    /// Whether a line-of-sight render may trace in lockstep lanes
+    /// ([`crate::integrator::path_packet`]): it keeps no per-sample values (variance, adaptive
+    /// sampling) and draws independent numbers.
+    pub fn lockstep(&self) -> bool {
+        !self.variance && self.target_rel_error.is_none() && !self.low_discrepancy && !self.shared
+    }
+
     /// Adaptive sampling's stopping rule after `n` samples whose totals have sums `t1` (of the
     /// totals) and `t2` (of their squares): at least [`ADAPTIVE_MIN_SAMPLES`] samples, a positive
     /// mean, and a relative error of at most `target_rel_error` at 90 % confidence — the standard
@@ -708,6 +715,7 @@ macro_rules! with_tracer {
                     $plan.spp,
                     &$monitor.cancel,
                     $pixels,
+                    $plan.lockstep(),
                 )?;
                 $body
             }
@@ -879,6 +887,27 @@ impl<'a, T: Tracer> Sampling<'a, T> {
     /// those of its samples traced one after another.
     fn run<'b>(&self, tasks: impl IntoIterator<Item = Task<'b>>) -> Result<()> {
         let mut tasks = tasks.into_iter();
+        if let Some(packet) = self.tracer.packet() {
+            for task in tasks {
+                let (buf, sum) = (task.buf, task.sum);
+                packet.trace(
+                    task.pixel,
+                    task.first..task.end,
+                    self.plan.seed,
+                    &self.monitor.cancel,
+                    &mut |s: Splat| {
+                        self.deposit(&s, buf, sum, None, 0);
+                    },
+                )?;
+                self.monitor
+                    .done
+                    .fetch_add(task.end - task.first, Ordering::Relaxed);
+                if let Some(t) = task.taken {
+                    *t = task.end - task.first;
+                }
+            }
+            return Ok(());
+        }
         let mut lanes: Vec<Option<Lane<'b, T::Path>>> = (0..T::IN_FLIGHT).map(|_| None).collect();
         loop {
             let mut busy = false;

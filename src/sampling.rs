@@ -2,6 +2,7 @@
 //! (tests/sampling.rs). Streams are keyed by (seed, pixel, block) so a render is bit-identical
 //! whatever the number of threads.
 
+use crate::simd::F8;
 use glam::{Vec2, Vec3A};
 use rand_core::Rng;
 use rand_pcg::Pcg32;
@@ -204,6 +205,47 @@ impl Sampler {
     }
 }
 
+/// Chris Wellons' `triple32` integer hash (2018, "Prospecting for Hash Functions": three
+/// xorshift-multiply rounds, the lowest bias of those he measured): a bijection of u32 whose every
+/// output bit flips with about half of the input bits.
+#[inline(always)]
+pub fn triple32(mut x: u32) -> u32 {
+    x ^= x >> 17;
+    x = x.wrapping_mul(0xed5a_d4bb);
+    x ^= x >> 11;
+    x = x.wrapping_mul(0xac4c_1b51);
+    x ^= x >> 15;
+    x = x.wrapping_mul(0x3184_8bab);
+    x ^ (x >> 14)
+}
+
+/// The key of a pixel's counter-based numbers ([`lane_uniform`]) for a seed.
+#[derive(Clone, Copy, Debug)]
+pub struct PixelKey(u64);
+
+/// The key of pixel `pixel`'s counter-based numbers under `seed`.
+pub fn lane_key(seed: u64, pixel: u64) -> PixelKey {
+    PixelKey(mix64(seed ^ mix64(pixel ^ 0x1312_d6a1_7c4e_90b5)))
+}
+
+impl PixelKey {
+    /// The key of sample `index` of the pixel: distinct samples (of fewer than 2³² per pixel)
+    /// get distinct keys.
+    #[inline]
+    pub fn sample(self, index: u64) -> u32 {
+        let (lo, hi) = (self.0 as u32, (self.0 >> 32) as u32);
+        triple32(triple32(hi ^ index as u32) ^ lo ^ (index >> 32) as u32)
+    }
+}
+
+/// The `dim`-th uniform in [0, 1) of the sample keyed `key` ([`PixelKey::sample`]): a hash of the
+/// key and the count (a Weyl step apart, then [`triple32`]), so that a sample's numbers need no
+/// state and lanes in lockstep draw them in vectors.
+#[inline(always)]
+pub fn lane_uniform(key: u32, dim: u32) -> f32 {
+    unit(triple32(key.wrapping_add(dim.wrapping_mul(0x9e37_79b9))))
+}
+
 /// Cosine-weighted hemisphere around +z (Malley's method over Shirley–Chiu's concentric disk).
 pub fn square_to_cosine_hemisphere(u: Vec2) -> Vec3A {
     let p = square_to_uniform_disk_concentric(u);
@@ -235,15 +277,21 @@ pub fn square_to_uniform_disk_concentric(u: Vec2) -> Vec2 {
 
 /// (sin θ, cos θ) for |θ| ≤ π/4 from their Taylor polynomials to θ⁹ and θ⁸ (truncation error
 /// below 3e-8, under f32 rounding): libm's general `sincosf` took a quarter of a line-of-sight
-/// render's time in cosine-weighted sampling.
-#[inline]
-pub fn sin_cos_quarter(t: f32) -> (f32, f32) {
+/// render's time in cosine-weighted sampling. For an `f32`, or for lanes of them
+/// ([`crate::simd::F8`]).
+#[inline(always)]
+pub fn sin_cos_quarter<T>(t: T) -> (T, T)
+where
+    T: Copy + std::ops::Add<Output = T> + std::ops::Mul<Output = T> + From<f32>,
+{
+    let k = T::from;
     let t2 = t * t;
     let s = t
-        * (1.0
-            + t2 * (-1.0 / 6.0
-                + t2 * (1.0 / 120.0 + t2 * (-1.0 / 5040.0 + t2 * (1.0 / 362_880.0)))));
-    let c = 1.0 + t2 * (-0.5 + t2 * (1.0 / 24.0 + t2 * (-1.0 / 720.0 + t2 * (1.0 / 40_320.0))));
+        * (k(1.0)
+            + t2 * (k(-1.0 / 6.0)
+                + t2 * (k(1.0 / 120.0) + t2 * (k(-1.0 / 5040.0) + t2 * k(1.0 / 362_880.0)))));
+    let c = k(1.0)
+        + t2 * (k(-0.5) + t2 * (k(1.0 / 24.0) + t2 * (k(-1.0 / 720.0) + t2 * k(1.0 / 40_320.0))));
     (s, c)
 }
 
@@ -277,6 +325,32 @@ pub fn square_to_uniform_triangle(u: Vec2) -> Vec2 {
         (u.x - b1, b1)
     };
     Vec2::new(b1, 1.0 - b0 - b1)
+}
+
+/// [`square_to_uniform_triangle`] over eight lanes ([`F8`]): barycentrics (b1, b2), each lane's
+/// bits those of the scalar routine.
+#[inline(always)]
+pub fn square_to_uniform_triangle_lanes(x: F8, y: F8) -> (F8, F8) {
+    let (half, lower) = (F8::splat(0.5), x.lt(y));
+    let b0 = F8::select(lower, x * half, x - y * half);
+    let b1 = F8::select(lower, y - x * half, y * half);
+    (b1, F8::splat(1.0) - b0 - b1)
+}
+
+/// [`square_to_uniform_disk_concentric`] over eight lanes ([`F8`]), each lane's bits those of the
+/// scalar routine.
+#[inline(always)]
+pub fn square_to_uniform_disk_concentric_lanes(u: F8, v: F8) -> (F8, F8) {
+    let (one, two, zero) = (F8::splat(1.0), F8::splat(2.0), F8::splat(0.0));
+    let (x, y) = (two * u - one, two * v - one);
+    let wide = x.abs().gt(y.abs());
+    let (r, num) = (F8::select(wide, x, y), F8::select(wide, y, x));
+    let q = F8::select(r.eq(zero), zero, num / r);
+    let (s, c) = sin_cos_quarter(F8::splat(PI / 4.0) * q);
+    (
+        F8::select(wide, r * c, r * s),
+        F8::select(wide, r * s, r * c),
+    )
 }
 
 /// A discrete distribution over non-negative weights, sampled in O(1) with Walker's alias method

@@ -3,6 +3,7 @@
 
 pub mod bvh;
 pub mod mesh;
+pub mod ray_packet;
 // (Off x86-64 the scan is never built.)
 #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
 pub mod small_scene;

@@ -4,7 +4,8 @@
 //! [`hidden_mixture`], sample reuse across scan points in [`sample_reuse`], the directions
 //! from a scan point that may meet anything in [`scan_cone`] and the shadow rays and traces
 //! answered without tracing in [`clear_view`]), `transient_path`
-//! is [`PathTracer`]. The render loop
+//! is [`PathTracer`] (with its lockstep lanes for small Lambertian scenes in [`path_packet`]). The
+//! render loop
 //! (`render.rs`) only sees the trait; a new integrator is a new file here and a line in
 //! `render::render`.
 
@@ -13,6 +14,7 @@ pub mod hgrs;
 pub mod hidden_mixture;
 pub mod nlos;
 pub mod path;
+pub mod path_packet;
 pub mod sample_reuse;
 pub mod scan_cone;
 pub mod visibility_guide;
@@ -101,6 +103,12 @@ pub trait Tracer: Sync {
     #[inline(always)]
     fn turned_down(&self, _pixel: usize, _rng: &mut Sampler, _max: u64) -> u64 {
         0
+    }
+
+    /// The lockstep render of this tracer's samples ([`path_packet`]), if it has one: the render
+    /// loop then traces each run of a pixel's samples through it instead of path by path.
+    fn packet(&self) -> Option<&path_packet::PathPacket<'_>> {
+        None
     }
 
     /// Start a path sample of `pixel` (row-major).

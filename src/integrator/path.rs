@@ -4,6 +4,7 @@
 //! optical path length travelled so far, from the camera's pinhole (or from the first surface with
 //! `camera_unwarp`).
 
+use super::path_packet::PathPacket;
 use super::scan_cone::pixel_footprints;
 use super::{Splat, Tracer, Vertex, russian_roulette};
 use crate::bsdf::Bsdf;
@@ -74,6 +75,8 @@ pub struct PathTracer<'a> {
     /// ([`super::scan_cone::Footprints::sole_shapes`]); `None` for a render of fewer than
     /// [`SOLE_SHAPES_MIN_SPP`] samples per pixel.
     sole_shapes: Option<Arc<SoleShapes>>,
+    /// The lockstep render, where the scene and the render allow it.
+    packet: Option<PathPacket<'a>>,
 }
 
 /// Fewest samples per pixel for which a render finds its pixels' sole shapes: that takes about
@@ -89,7 +92,9 @@ const SOLE_SHAPES_MIN_SPP: u64 = 64;
 struct SoleShapes(Vec<Option<u32>>);
 
 impl<'a> PathTracer<'a> {
-    /// Prepare a render of the pixels `pixels`, `spp` samples each, in mono or rgb.
+    /// Prepare a render of the pixels `pixels`, `spp` samples each, in mono or rgb; in lockstep
+    /// lanes ([`PathPacket`]) if `lockstep` (the render keeps no per-sample values and draws
+    /// independent numbers) and the scene allows.
     pub fn new(
         scene: &'a Scene,
         los: &'a Los,
@@ -97,7 +102,11 @@ impl<'a> PathTracer<'a> {
         spp: u64,
         cancel: &AtomicBool,
         pixels: Range<usize>,
+        lockstep: bool,
     ) -> Result<Self> {
+        let packet = lockstep
+            .then(|| PathPacket::new(scene, los, mono))
+            .flatten();
         let mut shape_emitter = vec![None; scene.shapes.len()];
         let mut emitters = Vec::with_capacity(los.lights.len());
         for light in &los.lights {
@@ -135,7 +144,7 @@ impl<'a> PathTracer<'a> {
             }
             Ok(SoleShapes(f.sole_shapes))
         };
-        let sole_shapes = if spp < SOLE_SHAPES_MIN_SPP {
+        let sole_shapes = if spp < SOLE_SHAPES_MIN_SPP || packet.is_some() {
             None
         } else if pixels == (0..film.width * film.height) {
             Some(scene.prepared.get_or_make(mono, make)?)
@@ -154,6 +163,7 @@ impl<'a> PathTracer<'a> {
             bsdfs,
             emitters,
             shape_emitter,
+            packet,
         })
     }
 
@@ -254,6 +264,10 @@ impl Tracer for PathTracer<'_> {
     type Light = ();
     type Path = CameraPath;
     const IN_FLIGHT: usize = 2;
+
+    fn packet(&self) -> Option<&PathPacket<'_>> {
+        self.packet.as_ref()
+    }
 
     /// A camera path through pixel `pixel` (row-major), before its first bounce.
     #[inline]

@@ -37,6 +37,7 @@ pub fn chi2_z(obs: &[f64], exp: &[f64]) -> f64 {
 /// χ² test of a 2D-parametrised sampler: `draw` gives cells (a, b) ∈ [0,1)² (or `None` for a
 /// failed sample, whose mass is then missing from `pdf` too), `pdf(a, b)` the density in those
 /// coordinates (already including the Jacobian).
+#[allow(dead_code)] // (not every test file that shares this module uses it)
 pub fn check(
     name: &str,
     mut draw: impl FnMut(&mut Sampler) -> Option<Vec2>,

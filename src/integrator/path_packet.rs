@@ -1,0 +1,703 @@
+//! `transient_path` traced eight paths at a time, in lockstep lanes: the line-of-sight path tracer
+//! of [`super::path`] for the scenes it is most run on — a few dozen flat triangles, every
+//! surface Lambertian (`diffuse`), lit by area lights (a Cornell box). Each lane is one sample of
+//! the same pixel; the lanes advance a bounce at a time together, and a lane whose path has ended
+//! takes the pixel's next sample at once, so the lanes stay full until the pixel's last samples.
+//! The rays of the lanes are traced together, eight to a vector ([`crate::geometry::ray_packet`]),
+//! and the steps between them are loops over the lanes without branches, which the compiler turns
+//! into vector instructions (AVX2 picked at run time): light sampling, cosine-weighted BSDF
+//! sampling, multiple importance sampling and Russian roulette. Only the film's splats and the
+//! gathers of what a lane hit are made lane by lane.
+//!
+//! The estimator is [`super::path`]'s (and mitransient's `transient_path`): next-event estimation
+//! and BSDF sampling under the power heuristic, emission splatted at the optical path length, the
+//! same clipping, depth, Russian-roulette and time-origin settings. What differs:
+//! - **Random numbers** are counter-based ([`crate::sampling::lane_uniform`]): the d-th number of a
+//!   sample is a hash of its key and d, so a lane's numbers do not depend on the other lanes.
+//! - **Rays start on the surface** and skip the triangles of its plane, and a shadow ray those of
+//!   its light point's plane, instead of being offset off them ([`crate::geometry::ray_packet`]).
+//!
+//! Results are the same whatever the thread count: a pixel's samples are traced in one task, in
+//! the same lanes, in the same order. Renders that keep per-sample values (variance, adaptive
+//! sampling) or draw from a low-discrepancy sequence use [`super::path`].
+
+// Loops over the lanes (and channels, axes) index several arrays by one lane at once.
+#![allow(clippy::needless_range_loop)]
+
+use super::Splat;
+use crate::bsdf::Bsdf;
+use crate::emitter::Light;
+use crate::error::{NlosError, Result};
+use crate::geometry::Prim;
+use crate::geometry::ray_packet::{LANES as L, NO_PLANE, Packet, PacketScene, barycentric_maps};
+use crate::math::{Frame, Spectrum};
+use crate::sampling::{
+    lane_key, lane_uniform, square_to_uniform_disk_concentric_lanes as square_to_disk,
+    square_to_uniform_triangle_lanes as square_to_triangle,
+};
+use crate::scene::{Los, Scene};
+use crate::sensor::Camera;
+use crate::settings::PathSettings;
+use crate::simd::{F8, M8};
+use glam::{Vec2, Vec3A};
+use std::f32::consts::FRAC_1_PI;
+use std::ops::Range;
+use std::sync::atomic::{AtomicBool, Ordering};
+
+/// Random numbers a bounce draws: light choice, light point (2), BSDF direction (2), Russian
+/// roulette; the camera ray's jitter takes the first two of depth 0's.
+const DIMS_PER_BOUNCE: u32 = 8;
+
+type F = [f32; L];
+type U = [u32; L];
+
+/// What a lane needs of the triangle it hit.
+#[derive(Clone, Copy, Debug)]
+struct Surface {
+    /// Unit shading normal (`flip_normals` applied), and a tangent frame about it for BSDF
+    /// sampling.
+    n: [f32; 3],
+    s: [f32; 3],
+    t: [f32; 3],
+    /// Unit geometric normal (for an area light's density in solid angle).
+    ng: [f32; 3],
+    /// Diffuse reflectance.
+    albedo: [f32; 3],
+    /// Plane key ([`PacketScene::plane`]).
+    plane: f32,
+    /// Index in `emitters` of the area light the triangle belongs to, or `u32::MAX`.
+    emitter: u32,
+    /// Its vertex normals differ: the shading normal is interpolated at each hit ([`Smooth`]).
+    curved: bool,
+}
+
+/// A triangle's vertex normals, as a lane interpolates them at its hit: the barycentrics of a
+/// point x of the triangle, b_k = a_k·x + w_k (k = 1, 2), and the normals n0, n1 − n0, n2 − n0
+/// (`flip_normals` applied).
+#[derive(Clone, Copy, Debug)]
+struct Smooth {
+    bary: [[f32; 4]; 2],
+    n: [[f32; 3]; 3],
+}
+
+impl Smooth {
+    /// The interpolation over the triangle `v` of the vertex normals `vn` (each face normal `ng`
+    /// where there are none), times `sign`.
+    fn new(v: [Vec3A; 3], vn: Option<[Vec3A; 3]>, ng: Vec3A, sign: f32) -> Self {
+        let vn = vn.unwrap_or([ng; 3]).map(|n| n * sign);
+        Self {
+            bary: barycentric_maps(v),
+            n: [arr(vn[0]), arr(vn[1] - vn[0]), arr(vn[2] - vn[0])],
+        }
+    }
+}
+
+/// A triangle of an area light, as next-event estimation samples it.
+#[derive(Clone, Copy, Debug)]
+struct LightTri {
+    /// A vertex and the two edges from it.
+    v0: [f32; 3],
+    e1: [f32; 3],
+    e2: [f32; 3],
+    /// Shading normal (which side emits) and geometric normal (the density's cosine).
+    n: [f32; 3],
+    ng: [f32; 3],
+    plane: f32,
+    emitter: u32,
+}
+
+/// An area light: its radiance and the area density of its points under next-event estimation,
+/// 1 / (lights · area).
+#[derive(Clone, Copy, Debug)]
+struct Emitter {
+    radiance: [f32; 3],
+    area_pdf: f32,
+}
+
+/// A prepared lockstep render of a scene ([`PathPacket::new`] says whether it can be).
+pub struct PathPacket<'a> {
+    camera: &'a Camera,
+    settings: &'a PathSettings,
+    width: usize,
+    height: usize,
+    geometry: PacketScene,
+    surfaces: Vec<Surface>,
+    lights: Vec<LightTri>,
+    /// Cumulative probability of each light triangle (the last is 1).
+    light_cdf: Vec<f32>,
+    emitters: Vec<Emitter>,
+    /// Per triangle, its vertex normals, where some triangle's are not all one.
+    smooth: Option<Vec<Smooth>>,
+    mono: bool,
+}
+
+/// The three components of a vector.
+fn arr(v: Vec3A) -> [f32; 3] {
+    v.to_array()
+}
+
+impl<'a> PathPacket<'a> {
+    /// The lockstep render of `scene`, if its every primitive is a triangle (at most
+    /// [`crate::geometry::ray_packet::MAX_TRIANGLES`]), its every BSDF `diffuse`, and its lights
+    /// area lights of uniform radiance on flat-shaded triangles; else `None` (the scalar path
+    /// tracer renders it).
+    pub fn new(scene: &Scene, los: &'a Los, mono: bool) -> Option<Self> {
+        if los.lights.is_empty() {
+            return None;
+        }
+        let geometry = PacketScene::new(&scene.prims, |i, j| {
+            scene.prim_shape[i] == scene.prim_shape[j]
+        })?;
+        let bsdfs = scene.shape_bsdfs(mono);
+        let mut emitters = Vec::new();
+        let mut shape_emitter = vec![u32::MAX; scene.shapes.len()];
+        for light in &los.lights {
+            let Light::Area {
+                shape,
+                radiance,
+                falloff: None,
+            } = *light
+            else {
+                return None;
+            };
+            let area: f32 = scene.prims[scene.shapes[shape].prims.clone()]
+                .iter()
+                .map(Prim::area)
+                .sum();
+            if !(area > 0.0) || shape_emitter[shape] != u32::MAX {
+                return None;
+            }
+            shape_emitter[shape] = emitters.len() as u32;
+            emitters.push(Emitter {
+                radiance: arr(radiance.spectrum(mono)),
+                area_pdf: 1.0 / (area * los.lights.len() as f32),
+            });
+        }
+        let (mut surfaces, mut lights, mut weights) = (Vec::new(), Vec::new(), Vec::new());
+        let mut smooth = false;
+        for (i, prim) in scene.prims.iter().enumerate() {
+            let Prim::Triangle { v, n } = *prim else {
+                return None;
+            };
+            // A triangle's vertex normals that are all one (a flat face's, as a mesh file rounds
+            // it) are the shading normal of its every point; others are interpolated at each hit
+            // (`smooth`).
+            let shape = scene.prim_shape[i] as usize;
+            let emitter = shape_emitter[shape];
+            let (ng, ns, curved) = match scene.prim_normals[i] {
+                None => (n, n, false),
+                Some(vn) => {
+                    let m = vn[0].normalize_or(n);
+                    let curved = vn.iter().any(|k| k.normalize_or(n).dot(m) < 1.0 - 1e-6);
+                    // A light sample's cosine is taken with one normal per light triangle.
+                    if curved && emitter != u32::MAX {
+                        return None;
+                    }
+                    smooth |= curved;
+                    (n, m, curved)
+                }
+            };
+            let Bsdf::Diffuse(d) = &bsdfs[shape] else {
+                return None;
+            };
+            let sign = scene.normal_sign(shape);
+            let (n, ng) = (ns * sign, ng * sign);
+            let frame = Frame::new(n);
+            let plane = geometry.plane(i as u32);
+            surfaces.push(Surface {
+                n: arr(n),
+                s: arr(frame.s),
+                t: arr(frame.t),
+                ng: arr(ng),
+                albedo: arr(d.reflectance),
+                plane,
+                emitter,
+                curved,
+            });
+            if emitter != u32::MAX {
+                lights.push(LightTri {
+                    v0: arr(v[0]),
+                    e1: arr(v[1] - v[0]),
+                    e2: arr(v[2] - v[0]),
+                    n: arr(n),
+                    ng: arr(ng),
+                    plane,
+                    emitter,
+                });
+                weights.push(prim.area() as f64 * emitters[emitter as usize].area_pdf as f64);
+            }
+        }
+        let total: f64 = weights.iter().sum();
+        let mut acc = 0.0;
+        let mut light_cdf: Vec<f32> = weights
+            .iter()
+            .map(|w| {
+                acc += w;
+                (acc / total) as f32
+            })
+            .collect();
+        *light_cdf.last_mut()? = 1.0;
+        Some(Self {
+            camera: &los.camera,
+            settings: &los.settings,
+            width: scene.meter.film.width,
+            height: scene.meter.film.height,
+            geometry,
+            surfaces,
+            lights,
+            light_cdf,
+            emitters,
+            smooth: smooth.then(|| {
+                (scene.prims.iter().enumerate())
+                    .map(|(i, p)| match *p {
+                        Prim::Triangle { v, n } => Smooth::new(
+                            v,
+                            scene.prim_normals[i],
+                            n,
+                            scene.normal_sign(scene.prim_shape[i] as usize),
+                        ),
+                        _ => unreachable!("every primitive is a triangle here"),
+                    })
+                    .collect()
+            }),
+            mono,
+        })
+    }
+
+    /// Trace samples `samples` of `pixel` (row-major), passing every contribution to `out`
+    /// (laser slot 0); stops with [`NlosError::Interrupted`] once `cancel` is set.
+    pub fn trace(
+        &self,
+        pixel: usize,
+        samples: Range<u64>,
+        seed: u64,
+        cancel: &AtomicBool,
+        out: &mut impl FnMut(Splat),
+    ) -> Result<()> {
+        // SAFETY: a `PathPacket` is made only where the CPU runs `F8`'s vectors (its
+        // `PacketScene`).
+        unsafe {
+            if self.mono {
+                self.lanes::<1>(pixel, samples, seed, cancel, out)
+            } else {
+                self.lanes::<3>(pixel, samples, seed, cancel, out)
+            }
+        }
+    }
+
+    /// The lockstep loop over `C` colour channels (1 mono, 3 rgb).
+    #[cfg_attr(target_arch = "x86_64", target_feature(enable = "avx2,fma"))]
+    unsafe fn lanes<const C: usize>(
+        &self,
+        pixel: usize,
+        samples: Range<u64>,
+        seed: u64,
+        cancel: &AtomicBool,
+        out: &mut impl FnMut(Splat),
+    ) -> Result<()> {
+        let st = self.settings;
+        let b = F8::splat;
+        let pixel_key = lane_key(seed, pixel as u64);
+        let mut next = samples.start;
+        let mut p = Paths::<C>::default();
+        loop {
+            if cancel.load(Ordering::Relaxed) {
+                return Err(NlosError::Interrupted);
+            }
+            // ---- A new sample in every lane whose path has ended: its camera ray.
+            for l in 0..L {
+                if p.alive >> l & 1 == 0 && next < samples.end {
+                    let key = pixel_key.sample(next);
+                    next += 1;
+                    let jitter = Vec2::new(lane_uniform(key, 0), lane_uniform(key, 1));
+                    let ray = self
+                        .camera
+                        .pixel_ray(pixel, self.width, self.height, jitter);
+                    p.start(l, key, arr(ray.o), arr(ray.d), ray.tmin, ray.tmax);
+                }
+            }
+            if p.alive == 0 {
+                return Ok(());
+            }
+            // ---- The closest hit of every lane's ray (a dead lane's ray is empty).
+            for l in 0..L {
+                if p.alive >> l & 1 == 0 {
+                    p.ray.tmax[l] = f32::NEG_INFINITY;
+                }
+            }
+            let (t, prim) = self.geometry.closest(&p.ray);
+            // What each lane hit, gathered into lanes.
+            let mut hit = Lanes::<C>::default();
+            let mut curved = 0;
+            for l in 0..L {
+                if prim[l] == u32::MAX {
+                    p.alive &= !(1 << l);
+                    continue;
+                }
+                let s = &self.surfaces[prim[l] as usize];
+                for a in 0..3 {
+                    (hit.n[a][l], hit.s[a][l], hit.t[a][l]) = (s.n[a], s.s[a], s.t[a]);
+                }
+                for c in 0..C {
+                    hit.albedo[c][l] = s.albedo[c];
+                }
+                (hit.plane[l], hit.emitter[l]) = (s.plane, s.emitter);
+                curved |= (s.curved as u32) << l;
+            }
+            let tv = F8::load(&t);
+            let o = p.ray.o.each_ref().map(F8::load);
+            let d = p.ray.d.each_ref().map(F8::load);
+            let x = [
+                d[0].mul_add(tv, o[0]),
+                d[1].mul_add(tv, o[1]),
+                d[2].mul_add(tv, o[2]),
+            ];
+            let mut n = hit.n.each_ref().map(F8::load);
+            let mut frame = [
+                hit.s.each_ref().map(F8::load),
+                hit.t.each_ref().map(F8::load),
+            ];
+            // Lanes on triangles whose vertex normals differ take the interpolated normal.
+            if let Some(smooth) = self.smooth.as_deref().filter(|_| curved != 0) {
+                let (ni, fi) = interpolated_normals(smooth, &prim, &x);
+                let m = M8::from_bits(curved);
+                for a in 0..3 {
+                    n[a] = F8::select(m, ni[a], n[a]);
+                    for k in 0..2 {
+                        frame[k][a] = F8::select(m, fi[k][a], frame[k][a]);
+                    }
+                }
+            }
+            let cos_i = (b(0.0) - dot(&n, &d)).store();
+            for l in 0..L {
+                p.opl[l] += match p.depth[l] {
+                    0 if st.camera_unwarp => 0.0,
+                    0 if st.opl_from_near_clip => (t[l] - p.ray.tmin[l]) as f64,
+                    _ => t[l] as f64,
+                };
+            }
+            // ---- Emission found by the camera ray or by BSDF sampling (MIS against the light
+            // sample that could have found it; a camera ray's is taken whole).
+            for l in 0..L {
+                let k = hit.emitter[l];
+                if p.alive >> l & 1 == 0
+                    || k == u32::MAX
+                    || cos_i[l] <= 0.0
+                    || (p.depth[l] == 0 && st.discard_direct_light)
+                {
+                    continue;
+                }
+                let e = &self.emitters[k as usize];
+                let w = if p.depth[l] == 0 {
+                    1.0
+                } else {
+                    // The density of the light sample that could have found this point: its
+                    // cosine is the geometric normal's.
+                    let ng = &self.surfaces[prim[l] as usize].ng;
+                    let d = &p.ray.d;
+                    let cos_g = (ng[0] * d[0][l] + ng[1] * d[1][l] + ng[2] * d[2][l]).abs();
+                    let light_pdf = if cos_g > 0.0 {
+                        t[l] * t[l] * e.area_pdf / cos_g
+                    } else {
+                        0.0
+                    };
+                    mis(p.bsdf_pdf[l], light_pdf)
+                };
+                let mut v = [0.0; C];
+                for c in 0..C {
+                    v[c] = p.beta[c][l] * e.radiance[c] * w;
+                }
+                out(splat(p.opl[l], v));
+            }
+            let mut rr = 0;
+            for l in 0..L {
+                // Paths at their last vertex, and those that meet a surface from behind (a
+                // one-sided BSDF neither reflects nor connects there), end.
+                if p.depth[l].saturating_add(1) >= st.max_depth || !(cos_i[l] > 0.0) {
+                    p.alive &= !(1 << l);
+                }
+                rr |= ((p.depth[l] >= st.rr_depth) as u32) << l;
+            }
+            if p.alive == 0 {
+                continue;
+            }
+            let alive = M8::from_bits(p.alive);
+            let mut dim = [0; L];
+            for l in 0..L {
+                dim[l] = p.depth[l].wrapping_mul(DIMS_PER_BOUNCE);
+            }
+            let beta = p.beta.each_ref().map(F8::load);
+            let albedo = hit.albedo.each_ref().map(F8::load);
+            // ---- Next-event estimation: a light triangle, a point on it, its contribution
+            // weighted against BSDF sampling, and a shadow ray for the lanes it lights.
+            let u_pick = p.uniforms(dim, 2);
+            let (u1, u2) = (p.uniforms(dim, 3), p.uniforms(dim, 4));
+            // The light triangles chosen, gathered into lanes.
+            let (mut v0, mut e1, mut e2) = ([[0.0; L]; 3], [[0.0; L]; 3], [[0.0; L]; 3]);
+            let (mut nl, mut ngl) = ([[0.0; L]; 3], [[0.0; L]; 3]);
+            let (mut area_pdf, mut le) = ([0.0; L], [[0.0; L]; C]);
+            let mut shadow = Packet::default();
+            // The light triangle of each lane: the first whose cumulative probability exceeds its
+            // number (counted in lanes).
+            let pick = F8::load(&u_pick);
+            let chosen = (self.light_cdf[..self.lights.len() - 1].iter())
+                .fold(b(0.0), |i, &c| {
+                    i + F8::select(b(c).le(pick), b(1.0), b(0.0))
+                })
+                .store();
+            for l in 0..L {
+                let tri = &self.lights[chosen[l] as usize];
+                let e = &self.emitters[tri.emitter as usize];
+                for a in 0..3 {
+                    (v0[a][l], e1[a][l], e2[a][l]) = (tri.v0[a], tri.e1[a], tri.e2[a]);
+                    (nl[a][l], ngl[a][l]) = (tri.n[a], tri.ng[a]);
+                }
+                for c in 0..C {
+                    le[c][l] = e.radiance[c];
+                }
+                area_pdf[l] = e.area_pdf;
+                shadow.skip[0][l] = hit.plane[l];
+                shadow.skip[1][l] = tri.plane;
+            }
+            let (b1, b2) = square_to_triangle(F8::load(&u1), F8::load(&u2));
+            let mut w = [b(0.0); 3];
+            for a in 0..3 {
+                let y = F8::load(&v0[a]) + F8::load(&e1[a]) * b1 + F8::load(&e2[a]) * b2;
+                w[a] = y - x[a];
+            }
+            let r2 = dot(&w, &w);
+            let r = r2.sqrt();
+            w = w.map(|w| w / r);
+            // The light's cosines (one-sided: its front faces x; the density's is the geometric
+            // normal's) and the BSDF's.
+            let cos_l = b(0.0) - dot(&nl.each_ref().map(F8::load), &w);
+            let cos_g = dot(&ngl.each_ref().map(F8::load), &w).abs();
+            let cos_o = dot(&n, &w);
+            let light_pdf = r2 * F8::load(&area_pdf) / cos_g;
+            let bsdf_pdf = cos_o * b(FRAC_1_PI);
+            let weight = mis_lanes(light_pdf, bsdf_pdf) * bsdf_pdf / light_pdf;
+            let lights = alive & cos_l.gt(b(0.0)) & cos_o.gt(b(0.0));
+            let mut lit = [[0.0; L]; C];
+            for c in 0..C {
+                let v = beta[c] * albedo[c] * F8::load(&le[c]) * weight;
+                lit[c] = F8::select(lights, v, b(0.0)).store();
+            }
+            shadow.o = x.map(F8::store);
+            shadow.d = w.map(F8::store);
+            shadow.tmax = r.store();
+            let open = match lights.bits() {
+                0 => 0,
+                cand => self.geometry.unoccluded(&shadow, cand),
+            };
+            for l in 0..L {
+                if open >> l & 1 != 0 {
+                    let mut v = [0.0; C];
+                    for c in 0..C {
+                        v[c] = lit[c][l];
+                    }
+                    out(splat(p.opl[l] + shadow.tmax[l] as f64, v));
+                }
+            }
+            // ---- BSDF sampling (cosine-weighted: the weight is the albedo), then Russian
+            // roulette as Mitsuba plays it.
+            let (v1, v2) = (p.uniforms(dim, 5), p.uniforms(dim, 6));
+            let u_rr = F8::load(&p.uniforms(dim, 7));
+            let (dx, dy) = square_to_disk(F8::load(&v1), F8::load(&v2));
+            let dz = (b(1.0) - dx * dx - dy * dy).max(b(0.0)).sqrt();
+            for a in 0..3 {
+                let dir = frame[0][a] * dx + frame[1][a] * dy + n[a] * dz;
+                p.ray.d[a] = dir.store();
+                p.ray.o[a] = x[a].store();
+            }
+            p.bsdf_pdf = (dz * b(FRAC_1_PI)).store();
+            let beta: [F8; C] = std::array::from_fn(|c| beta[c] * albedo[c]);
+            let m = beta.iter().fold(b(0.0), |m, &x| x.max(m));
+            let rr = M8::from_bits(rr);
+            let q = F8::select(rr, m.min(b(0.95)), b(1.0));
+            let goes_on = m.gt(b(0.0)) & (!rr | u_rr.lt(q));
+            for c in 0..C {
+                p.beta[c] = (beta[c] / q).store();
+            }
+            p.alive &= goes_on.bits();
+            p.ray.tmin = [0.0; L];
+            p.ray.tmax = [f32::INFINITY; L];
+            p.ray.skip[0] = hit.plane;
+            for l in 0..L {
+                p.depth[l] += 1;
+            }
+        }
+    }
+}
+
+/// What the lanes hit, by lane: normal and tangent frame, albedo, plane key and emitter.
+struct Lanes<const C: usize> {
+    n: [F; 3],
+    s: [F; 3],
+    t: [F; 3],
+    albedo: [F; C],
+    plane: F,
+    emitter: U,
+}
+
+impl<const C: usize> Default for Lanes<C> {
+    fn default() -> Self {
+        Self {
+            n: [[0.0; L]; 3],
+            s: [[0.0; L]; 3],
+            t: [[0.0; L]; 3],
+            albedo: [[0.0; L]; C],
+            plane: [NO_PLANE; L],
+            emitter: [u32::MAX; L],
+        }
+    }
+}
+
+/// The paths of the lanes between bounces, by lane.
+struct Paths<const C: usize> {
+    /// A bit per lane whose path goes on.
+    alive: u32,
+    /// The lane's sample key ([`lane_uniform`]).
+    key: U,
+    depth: U,
+    /// The rays to trace next (each skipping its origin's plane).
+    ray: Packet,
+    beta: [F; C],
+    opl: [f64; L],
+    /// Density with which BSDF sampling chose the ray (for MIS on the emission it finds).
+    bsdf_pdf: F,
+}
+
+impl<const C: usize> Default for Paths<C> {
+    fn default() -> Self {
+        Self {
+            alive: 0,
+            key: [0; L],
+            depth: [0; L],
+            ray: Packet {
+                skip: [[NO_PLANE; L]; 2],
+                ..Packet::default()
+            },
+            beta: [[0.0; L]; C],
+            opl: [0.0; L],
+            bsdf_pdf: [0.0; L],
+        }
+    }
+}
+
+impl<const C: usize> Paths<C> {
+    /// Lane `l` begins a sample (key `key`) with the camera ray `o + t d`, t in (tmin, tmax).
+    #[inline(always)]
+    fn start(&mut self, l: usize, key: u32, o: [f32; 3], d: [f32; 3], tmin: f32, tmax: f32) {
+        self.alive |= 1 << l;
+        self.key[l] = key;
+        self.depth[l] = 0;
+        self.ray.skip[0][l] = NO_PLANE;
+        for a in 0..3 {
+            self.ray.o[a][l] = o[a];
+            self.ray.d[a][l] = d[a];
+        }
+        (self.ray.tmin[l], self.ray.tmax[l]) = (tmin, tmax);
+        for c in 0..C {
+            self.beta[c][l] = 1.0;
+        }
+        self.opl[l] = 0.0;
+        self.bsdf_pdf[l] = 0.0;
+    }
+
+    /// Each lane's random number `slot` of the bounce whose first is `dim`.
+    #[inline(always)]
+    fn uniforms(&self, dim: U, slot: u32) -> F {
+        let mut u = [0.0; L];
+        for l in 0..L {
+            u[l] = lane_uniform(self.key[l], dim[l] + slot);
+        }
+        u
+    }
+}
+
+/// Each lane's shading normal at its hit `x` on triangle `prim` (interpolated from its vertex
+/// normals and normalised, as [`crate::scene::Scene::surface_point`] does), and a tangent frame
+/// about it ([`Frame::new`] lane by lane).
+#[inline(always)]
+fn interpolated_normals(smooth: &[Smooth], prim: &U, x: &[F8; 3]) -> ([F8; 3], [[F8; 3]; 2]) {
+    let (mut bary, mut vn) = ([[[0.0; L]; 4]; 2], [[[0.0; L]; 3]; 3]);
+    for l in 0..L {
+        let Some(s) = smooth.get(prim[l] as usize) else {
+            continue;
+        };
+        for k in 0..2 {
+            for a in 0..4 {
+                bary[k][a][l] = s.bary[k][a];
+            }
+        }
+        for k in 0..3 {
+            for a in 0..3 {
+                vn[k][a][l] = s.n[k][a];
+            }
+        }
+    }
+    let b1 = aff(&bary[0], x, F8::load(&bary[0][3]));
+    let b2 = aff(&bary[1], x, F8::load(&bary[1][3]));
+    let mut n = [F8::splat(0.0); 3];
+    for a in 0..3 {
+        n[a] = F8::load(&vn[0][a]) + b1 * F8::load(&vn[1][a]) + b2 * F8::load(&vn[2][a]);
+    }
+    let len = dot(&n, &n).sqrt();
+    for c in &mut n {
+        *c = *c / len;
+    }
+    let one = F8::splat(1.0);
+    let sign = F8::select(n[2].lt(F8::splat(0.0)), F8::splat(-1.0), one);
+    let a = F8::splat(-1.0) / (sign + n[2]);
+    let bb = n[0] * n[1] * a;
+    let s = [
+        one + sign * n[0] * n[0] * a,
+        sign * bb,
+        F8::splat(0.0) - sign * n[0],
+    ];
+    let t = [bb, sign + n[1] * n[1] * a, F8::splat(0.0) - n[1]];
+    (n, [s, t])
+}
+
+/// a·x + w lane by lane, for the map `m` = (a, w) given by lanes (its w as `w`).
+#[inline(always)]
+fn aff(m: &[F; 4], x: &[F8; 3], w: F8) -> F8 {
+    let a = [F8::load(&m[0]), F8::load(&m[1]), F8::load(&m[2])];
+    a[2].mul_add(x[2], a[1].mul_add(x[1], a[0].mul_add(x[0], w)))
+}
+
+/// a · b over the three axes, lane by lane.
+#[inline(always)]
+fn dot(a: &[F8; 3], b: &[F8; 3]) -> F8 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+/// [`mis`] lane by lane.
+#[inline(always)]
+fn mis_lanes(a: F8, b: F8) -> F8 {
+    let (a2, b2) = (a * a, b * b);
+    let sum = a2 + b2;
+    F8::select(sum.gt(F8::splat(0.0)), a2 / sum, F8::splat(0.0))
+}
+
+/// Power heuristic with exponent 2 (as [`super::path`]).
+#[inline(always)]
+fn mis(a: f32, b: f32) -> f32 {
+    let (a2, b2) = (a * a, b * b);
+    if a2 + b2 > 0.0 { a2 / (a2 + b2) } else { 0.0 }
+}
+
+/// A splat of `C` channels (mono fills all three, as a mono spectrum is).
+#[inline(always)]
+fn splat<const C: usize>(opl: f64, v: [f32; C]) -> Splat {
+    let value = if C == 1 {
+        Spectrum::splat(v[0])
+    } else {
+        Spectrum::new(v[0], v[1 % C], v[2 % C])
+    };
+    Splat {
+        slot: 0,
+        opl,
+        value,
+    }
+}

@@ -1,0 +1,315 @@
+//! Eight `f32` lanes as one value, [`F8`], for code that runs paths in lockstep (the line-of-sight
+//! path tracer's lanes and their ray packets): arithmetic, comparisons
+//! into lane masks ([`M8`]) and selects, written once. On x86-64 an `F8` is an AVX2 vector, and its
+//! operations must run inside functions compiled for AVX2 and FMA (`#[target_feature(enable =
+//! "avx2,fma")]`, after run-time detection: [`available`]); elsewhere it is an array, lane by lane.
+//! Either way every lane is rounded as the scalar operation would be (multiply-adds fused in both),
+//! so the two give the same bits.
+
+/// Lanes per value.
+pub const LANES: usize = 8;
+
+/// Whether this CPU runs [`F8`]'s vector form (AVX2 with FMA); elsewhere than x86-64, its array
+/// form always runs.
+pub fn available() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        true
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+mod imp {
+    use super::LANES;
+    use std::arch::x86_64::*;
+
+    /// Eight lanes in an AVX2 vector.
+    #[derive(Clone, Copy, Debug)]
+    pub struct F8(__m256);
+
+    /// A lane mask: all ones or all zeros per lane.
+    #[derive(Clone, Copy, Debug)]
+    pub struct M8(__m256);
+
+    // SAFETY (every `unsafe` block below): the operations are AVX2 and FMA instructions, and are
+    // inlined only into functions compiled for those features, run after `available()`.
+    impl F8 {
+        /// `x` in every lane.
+        #[inline(always)]
+        pub fn splat(x: f32) -> Self {
+            Self(unsafe { _mm256_set1_ps(x) })
+        }
+        /// The lanes from an array.
+        #[inline(always)]
+        pub fn load(a: &[f32; LANES]) -> Self {
+            Self(unsafe { _mm256_loadu_ps(a.as_ptr()) })
+        }
+        /// The lanes into an array.
+        #[inline(always)]
+        pub fn store(self) -> [f32; LANES] {
+            let mut a = [0.0; LANES];
+            unsafe { _mm256_storeu_ps(a.as_mut_ptr(), self.0) };
+            a
+        }
+        /// self · b + c, rounded once.
+        #[inline(always)]
+        pub fn mul_add(self, b: Self, c: Self) -> Self {
+            Self(unsafe { _mm256_fmadd_ps(self.0, b.0, c.0) })
+        }
+        /// The lane-wise square root.
+        #[inline(always)]
+        pub fn sqrt(self) -> Self {
+            Self(unsafe { _mm256_sqrt_ps(self.0) })
+        }
+        /// The lane-wise maximum (`b` where either is NaN).
+        #[inline(always)]
+        pub fn max(self, b: Self) -> Self {
+            Self(unsafe { _mm256_max_ps(self.0, b.0) })
+        }
+        /// The lane-wise minimum (`b` where either is NaN).
+        #[inline(always)]
+        pub fn min(self, b: Self) -> Self {
+            Self(unsafe { _mm256_min_ps(self.0, b.0) })
+        }
+        /// The lane-wise absolute value.
+        #[inline(always)]
+        pub fn abs(self) -> Self {
+            Self(unsafe { _mm256_andnot_ps(_mm256_set1_ps(-0.0), self.0) })
+        }
+        /// Lanes where self < b.
+        #[inline(always)]
+        pub fn lt(self, b: Self) -> M8 {
+            M8(unsafe { _mm256_cmp_ps::<_CMP_LT_OQ>(self.0, b.0) })
+        }
+        /// Lanes where self ≤ b.
+        #[inline(always)]
+        pub fn le(self, b: Self) -> M8 {
+            M8(unsafe { _mm256_cmp_ps::<_CMP_LE_OQ>(self.0, b.0) })
+        }
+        /// Lanes where self > b.
+        #[inline(always)]
+        pub fn gt(self, b: Self) -> M8 {
+            M8(unsafe { _mm256_cmp_ps::<_CMP_GT_OQ>(self.0, b.0) })
+        }
+        /// Lanes where self ≥ b.
+        #[inline(always)]
+        pub fn ge(self, b: Self) -> M8 {
+            M8(unsafe { _mm256_cmp_ps::<_CMP_GE_OQ>(self.0, b.0) })
+        }
+        /// Not equal, or either is NaN.
+        #[inline(always)]
+        pub fn ne(self, b: Self) -> M8 {
+            M8(unsafe { _mm256_cmp_ps::<_CMP_NEQ_UQ>(self.0, b.0) })
+        }
+        /// Lanes where self = b.
+        #[inline(always)]
+        pub fn eq(self, b: Self) -> M8 {
+            M8(unsafe { _mm256_cmp_ps::<_CMP_EQ_OQ>(self.0, b.0) })
+        }
+        /// `a` in the lanes of `m`, `b` in the others.
+        #[inline(always)]
+        pub fn select(m: M8, a: Self, b: Self) -> Self {
+            Self(unsafe { _mm256_blendv_ps(b.0, a.0, m.0) })
+        }
+    }
+
+    impl M8 {
+        /// Bit `i` set where lane `i` is.
+        #[inline(always)]
+        pub fn bits(self) -> u32 {
+            unsafe { _mm256_movemask_ps(self.0) as u32 }
+        }
+        /// The lanes of the bits `bits`.
+        #[inline(always)]
+        pub fn from_bits(bits: u32) -> Self {
+            unsafe {
+                let lane = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
+                let set = _mm256_and_si256(_mm256_set1_epi32(bits as i32), lane);
+                Self(_mm256_castsi256_ps(_mm256_cmpeq_epi32(set, lane)))
+            }
+        }
+    }
+
+    macro_rules! binary {
+        ($t:ident, $f:ident, $i:ident) => {
+            impl std::ops::$t for F8 {
+                type Output = Self;
+                #[inline(always)]
+                fn $f(self, b: Self) -> Self {
+                    Self(unsafe { $i(self.0, b.0) })
+                }
+            }
+        };
+    }
+    binary!(Add, add, _mm256_add_ps);
+    binary!(Sub, sub, _mm256_sub_ps);
+    binary!(Mul, mul, _mm256_mul_ps);
+    binary!(Div, div, _mm256_div_ps);
+
+    macro_rules! logic {
+        ($t:ident, $f:ident, $i:ident) => {
+            impl std::ops::$t for M8 {
+                type Output = Self;
+                #[inline(always)]
+                fn $f(self, b: Self) -> Self {
+                    Self(unsafe { $i(self.0, b.0) })
+                }
+            }
+        };
+    }
+    logic!(BitAnd, bitand, _mm256_and_ps);
+    logic!(BitOr, bitor, _mm256_or_ps);
+
+    impl std::ops::Not for M8 {
+        type Output = Self;
+        #[inline(always)]
+        fn not(self) -> Self {
+            Self(unsafe { _mm256_xor_ps(self.0, _mm256_castsi256_ps(_mm256_set1_epi32(-1))) })
+        }
+    }
+}
+
+#[cfg(not(target_arch = "x86_64"))]
+mod imp {
+    use super::LANES;
+
+    /// Eight lanes in an array.
+    #[derive(Clone, Copy, Debug)]
+    pub struct F8([f32; LANES]);
+
+    /// A lane mask: a bit per lane.
+    #[derive(Clone, Copy, Debug)]
+    pub struct M8(u32);
+
+    impl F8 {
+        #[inline(always)]
+        fn map2(self, b: Self, f: impl Fn(f32, f32) -> f32) -> Self {
+            Self(std::array::from_fn(|l| f(self.0[l], b.0[l])))
+        }
+        #[inline(always)]
+        fn test(self, b: Self, f: impl Fn(f32, f32) -> bool) -> M8 {
+            M8((0..LANES).fold(0, |m, l| m | (f(self.0[l], b.0[l]) as u32) << l))
+        }
+        /// `x` in every lane.
+        pub fn splat(x: f32) -> Self {
+            Self([x; LANES])
+        }
+        /// The lanes from an array.
+        pub fn load(a: &[f32; LANES]) -> Self {
+            Self(*a)
+        }
+        /// The lanes into an array.
+        pub fn store(self) -> [f32; LANES] {
+            self.0
+        }
+        /// self · b + c, rounded once.
+        pub fn mul_add(self, b: Self, c: Self) -> Self {
+            Self(std::array::from_fn(|l| self.0[l].mul_add(b.0[l], c.0[l])))
+        }
+        /// The lane-wise square root.
+        pub fn sqrt(self) -> Self {
+            Self(self.0.map(f32::sqrt))
+        }
+        /// The lane-wise maximum (`b` where either is NaN).
+        pub fn max(self, b: Self) -> Self {
+            self.map2(b, |a, b| if a > b { a } else { b })
+        }
+        /// The lane-wise minimum (`b` where either is NaN).
+        pub fn min(self, b: Self) -> Self {
+            self.map2(b, |a, b| if a < b { a } else { b })
+        }
+        /// The lane-wise absolute value.
+        pub fn abs(self) -> Self {
+            Self(self.0.map(f32::abs))
+        }
+        /// Lanes where self < b.
+        pub fn lt(self, b: Self) -> M8 {
+            self.test(b, |a, b| a < b)
+        }
+        /// Lanes where self ≤ b.
+        pub fn le(self, b: Self) -> M8 {
+            self.test(b, |a, b| a <= b)
+        }
+        /// Lanes where self > b.
+        pub fn gt(self, b: Self) -> M8 {
+            self.test(b, |a, b| a > b)
+        }
+        /// Lanes where self ≥ b.
+        pub fn ge(self, b: Self) -> M8 {
+            self.test(b, |a, b| a >= b)
+        }
+        /// Not equal, or either is NaN.
+        pub fn ne(self, b: Self) -> M8 {
+            self.test(b, |a, b| a != b)
+        }
+        /// Lanes where self = b.
+        pub fn eq(self, b: Self) -> M8 {
+            self.test(b, |a, b| a == b)
+        }
+        /// `a` in the lanes of `m`, `b` in the others.
+        pub fn select(m: M8, a: Self, b: Self) -> Self {
+            Self(std::array::from_fn(|l| {
+                if m.0 >> l & 1 != 0 { a.0[l] } else { b.0[l] }
+            }))
+        }
+    }
+
+    impl M8 {
+        /// Bit `i` set where lane `i` is.
+        pub fn bits(self) -> u32 {
+            self.0
+        }
+        /// The lanes of the bits `bits`.
+        pub fn from_bits(bits: u32) -> Self {
+            Self(bits & 0xff)
+        }
+    }
+
+    macro_rules! binary {
+        ($t:ident, $f:ident, $op:tt) => {
+            impl std::ops::$t for F8 {
+                type Output = Self;
+                fn $f(self, b: Self) -> Self {
+                    self.map2(b, |a, b| a $op b)
+                }
+            }
+        };
+    }
+    binary!(Add, add, +);
+    binary!(Sub, sub, -);
+    binary!(Mul, mul, *);
+    binary!(Div, div, /);
+
+    impl std::ops::BitAnd for M8 {
+        type Output = Self;
+        fn bitand(self, b: Self) -> Self {
+            Self(self.0 & b.0)
+        }
+    }
+    impl std::ops::BitOr for M8 {
+        type Output = Self;
+        fn bitor(self, b: Self) -> Self {
+            Self(self.0 | b.0)
+        }
+    }
+    impl std::ops::Not for M8 {
+        type Output = Self;
+        fn not(self) -> Self {
+            Self(!self.0 & 0xff)
+        }
+    }
+}
+
+pub use imp::{F8, M8};
+
+impl From<f32> for F8 {
+    /// `x` in every lane.
+    #[inline(always)]
+    fn from(x: f32) -> Self {
+        Self::splat(x)
+    }
+}
