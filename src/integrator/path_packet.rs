@@ -4,10 +4,10 @@
 //! the same pixel; the lanes advance a bounce at a time together, and a lane whose path has ended
 //! takes the pixel's next sample at once, so the lanes stay full until the pixel's last samples.
 //! The rays of the lanes are traced together, eight to a vector ([`crate::geometry::ray_packet`]),
-//! and the steps between them are loops over the lanes without branches, which the compiler turns
-//! into vector instructions (AVX2 picked at run time): light sampling, cosine-weighted BSDF
-//! sampling, multiple importance sampling and Russian roulette. Only the film's splats and the
-//! gathers of what a lane hit are made lane by lane.
+//! and the steps between them are branch-free arithmetic on eight lanes ([`crate::simd::F8`], AVX2
+//! picked at run time): light sampling, cosine-weighted BSDF sampling, multiple importance sampling
+//! and Russian roulette. Only the film's splats and the gathers of what a lane hit and of the
+//! light triangle it chose are made lane by lane.
 //!
 //! The estimator is [`super::path`]'s (and mitransient's `transient_path`): next-event estimation
 //! and BSDF sampling under the power heuristic, emission splatted at the optical path length, the
