@@ -193,6 +193,12 @@ def workloads(quick: bool):
                                            max(1, 8192 // div)), "mono"),
         "mitransient_cbox_file": (lambda: (str(data / "mitransient" / "cornell-box" / "cbox_diffuse.xml"),
                                            max(1, 256 // div), {"res": 64}), "mono"),
+        # mitransient's other line-of-sight examples: a floor under an area light (short paths, most
+        # leave the open scene after a bounce or two) and the Cornell box on its phasor film.
+        "mitransient_area_1light_file": (lambda: (str(data / "mitransient" / "angulararea-emitter" / "area_1light.xml"),
+                                                  max(1, 256 // div), {"res": 64}), "mono"),
+        "mitransient_cbox_freq_file": (lambda: (str(data / "mitransient" / "cornell-box" / "cbox_diffuse_freq.xml"),
+                                                max(1, 256 // div), {"res": 64}), "mono"),
         "tal_confocal_file": (lambda: (str(data / "tal021" / "confocal.xml"), max(1, (1 << 19) // div)), "mono"),
         # Hidden-geometry sampling off, the default of mitransient's plugin and of tal's generator.
         "z_confocal_bsdf": (lambda: bsdf_sampling(z(4096, width=64, height=64, capture_type="confocal")), "mono"),
