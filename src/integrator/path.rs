@@ -39,7 +39,7 @@ fn emitted(
 
 /// Power heuristic with exponent 2 (Mitsuba's `mis_weight`).
 #[inline]
-fn mis(a: f32, b: f32) -> f32 {
+pub(super) fn mis(a: f32, b: f32) -> f32 {
     let (a2, b2) = (a * a, b * b);
     if a2 + b2 > 0.0 { a2 / (a2 + b2) } else { 0.0 }
 }

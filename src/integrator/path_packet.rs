@@ -25,6 +25,7 @@
 #![allow(clippy::needless_range_loop)]
 
 use super::Splat;
+use super::path::mis;
 use crate::bsdf::Bsdf;
 use crate::emitter::Light;
 use crate::error::{NlosError, Result};
@@ -87,23 +88,23 @@ impl Smooth {
         let vn = vn.unwrap_or([ng; 3]).map(|n| n * sign);
         Self {
             bary: barycentric_maps(v),
-            n: [arr(vn[0]), arr(vn[1] - vn[0]), arr(vn[2] - vn[0])],
+            n: [
+                vn[0].to_array(),
+                (vn[1] - vn[0]).to_array(),
+                (vn[2] - vn[0]).to_array(),
+            ],
         }
     }
 }
 
-/// A triangle of an area light, as next-event estimation samples it.
+/// A triangle of an area light, as next-event estimation samples it: a vertex, the two edges
+/// from it, and the triangle (its normals, plane and emitter are its [`Surface`]'s).
 #[derive(Clone, Copy, Debug)]
 struct LightTri {
-    /// A vertex and the two edges from it.
     v0: [f32; 3],
     e1: [f32; 3],
     e2: [f32; 3],
-    /// Shading normal (which side emits) and geometric normal (the density's cosine).
-    n: [f32; 3],
-    ng: [f32; 3],
-    plane: f32,
-    emitter: u32,
+    prim: u32,
 }
 
 /// An area light: its radiance and the area density of its points under next-event estimation,
@@ -126,14 +127,10 @@ pub struct PathPacket<'a> {
     /// Cumulative probability of each light triangle (the last is 1).
     light_cdf: Vec<f32>,
     emitters: Vec<Emitter>,
-    /// Per triangle, its vertex normals, where some triangle's are not all one.
-    smooth: Option<Vec<Smooth>>,
+    /// Per triangle, its vertex normals as lanes interpolate them (read for [`Surface::curved`]
+    /// triangles only).
+    smooth: Vec<Smooth>,
     mono: bool,
-}
-
-/// The three components of a vector.
-fn arr(v: Vec3A) -> [f32; 3] {
-    v.to_array()
 }
 
 impl<'a> PathPacket<'a> {
@@ -169,19 +166,19 @@ impl<'a> PathPacket<'a> {
             }
             shape_emitter[shape] = emitters.len() as u32;
             emitters.push(Emitter {
-                radiance: arr(radiance.spectrum(mono)),
+                radiance: radiance.spectrum(mono).to_array(),
                 area_pdf: 1.0 / (area * los.lights.len() as f32),
             });
         }
         let (mut surfaces, mut lights, mut weights) = (Vec::new(), Vec::new(), Vec::new());
-        let mut smooth = false;
+        let mut smooth = Vec::with_capacity(scene.prims.len());
         for (i, prim) in scene.prims.iter().enumerate() {
             let Prim::Triangle { v, n } = *prim else {
                 return None;
             };
             // A triangle's vertex normals that are all one (a flat face's, as a mesh file rounds
             // it) are the shading normal of its every point; others are interpolated at each hit
-            // (`smooth`).
+            // (`curved`).
             let shape = scene.prim_shape[i] as usize;
             let emitter = shape_emitter[shape];
             let (ng, ns, curved) = match scene.prim_normals[i] {
@@ -193,7 +190,6 @@ impl<'a> PathPacket<'a> {
                     if curved && emitter != u32::MAX {
                         return None;
                     }
-                    smooth |= curved;
                     (n, m, curved)
                 }
             };
@@ -201,28 +197,25 @@ impl<'a> PathPacket<'a> {
                 return None;
             };
             let sign = scene.normal_sign(shape);
+            smooth.push(Smooth::new(v, scene.prim_normals[i], ng, sign));
             let (n, ng) = (ns * sign, ng * sign);
             let frame = Frame::new(n);
-            let plane = geometry.plane(i as u32);
             surfaces.push(Surface {
-                n: arr(n),
-                s: arr(frame.s),
-                t: arr(frame.t),
-                ng: arr(ng),
-                albedo: arr(d.reflectance),
-                plane,
+                n: n.to_array(),
+                s: frame.s.to_array(),
+                t: frame.t.to_array(),
+                ng: ng.to_array(),
+                albedo: d.reflectance.to_array(),
+                plane: geometry.plane(i as u32),
                 emitter,
                 curved,
             });
             if emitter != u32::MAX {
                 lights.push(LightTri {
-                    v0: arr(v[0]),
-                    e1: arr(v[1] - v[0]),
-                    e2: arr(v[2] - v[0]),
-                    n: arr(n),
-                    ng: arr(ng),
-                    plane,
-                    emitter,
+                    v0: v[0].to_array(),
+                    e1: (v[1] - v[0]).to_array(),
+                    e2: (v[2] - v[0]).to_array(),
+                    prim: i as u32,
                 });
                 weights.push(prim.area() as f64 * emitters[emitter as usize].area_pdf as f64);
             }
@@ -247,19 +240,7 @@ impl<'a> PathPacket<'a> {
             lights,
             light_cdf,
             emitters,
-            smooth: smooth.then(|| {
-                (scene.prims.iter().enumerate())
-                    .map(|(i, p)| match *p {
-                        Prim::Triangle { v, n } => Smooth::new(
-                            v,
-                            scene.prim_normals[i],
-                            n,
-                            scene.normal_sign(scene.prim_shape[i] as usize),
-                        ),
-                        _ => unreachable!("every primitive is a triangle here"),
-                    })
-                    .collect()
-            }),
+            smooth,
             mono,
         })
     }
@@ -313,7 +294,14 @@ impl<'a> PathPacket<'a> {
                     let ray = self
                         .camera
                         .pixel_ray(pixel, self.width, self.height, jitter);
-                    p.start(l, key, arr(ray.o), arr(ray.d), ray.tmin, ray.tmax);
+                    p.start(
+                        l,
+                        key,
+                        ray.o.to_array(),
+                        ray.d.to_array(),
+                        ray.tmin,
+                        ray.tmax,
+                    );
                 }
             }
             if p.alive == 0 {
@@ -358,8 +346,8 @@ impl<'a> PathPacket<'a> {
                 hit.t.each_ref().map(F8::load),
             ];
             // Lanes on triangles whose vertex normals differ take the interpolated normal.
-            if let Some(smooth) = self.smooth.as_deref().filter(|_| curved != 0) {
-                let (ni, fi) = interpolated_normals(smooth, &prim, &x);
+            if curved != 0 {
+                let (ni, fi) = interpolated_normals(&self.smooth, &prim, &x);
                 let m = M8::from_bits(curved);
                 for a in 0..3 {
                     n[a] = F8::select(m, ni[a], n[a]);
@@ -447,17 +435,18 @@ impl<'a> PathPacket<'a> {
                 .store();
             for l in 0..L {
                 let tri = &self.lights[chosen[l] as usize];
-                let e = &self.emitters[tri.emitter as usize];
+                let s = &self.surfaces[tri.prim as usize];
+                let e = &self.emitters[s.emitter as usize];
                 for a in 0..3 {
                     (v0[a][l], e1[a][l], e2[a][l]) = (tri.v0[a], tri.e1[a], tri.e2[a]);
-                    (nl[a][l], ngl[a][l]) = (tri.n[a], tri.ng[a]);
+                    (nl[a][l], ngl[a][l]) = (s.n[a], s.ng[a]);
                 }
                 for c in 0..C {
                     le[c][l] = e.radiance[c];
                 }
                 area_pdf[l] = e.area_pdf;
                 shadow.skip[0][l] = hit.plane[l];
-                shadow.skip[1][l] = tri.plane;
+                shadow.skip[1][l] = s.plane;
             }
             let (b1, b2) = square_to_triangle(F8::load(&u1), F8::load(&u2));
             let mut w = [b(0.0); 3];
@@ -623,7 +612,7 @@ fn interpolated_normals(smooth: &[Smooth], prim: &U, x: &[F8; 3]) -> ([F8; 3], [
     let (mut bary, mut vn) = ([[[0.0; L]; 4]; 2], [[[0.0; L]; 3]; 3]);
     for l in 0..L {
         let Some(s) = smooth.get(prim[l] as usize) else {
-            continue;
+            continue; // a lane that hit nothing
         };
         for k in 0..2 {
             for a in 0..4 {
@@ -672,19 +661,12 @@ fn dot(a: &[F8; 3], b: &[F8; 3]) -> F8 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 
-/// [`mis`] lane by lane.
+/// The power heuristic ([`mis`]) lane by lane.
 #[inline(always)]
 fn mis_lanes(a: F8, b: F8) -> F8 {
     let (a2, b2) = (a * a, b * b);
     let sum = a2 + b2;
     F8::select(sum.gt(F8::splat(0.0)), a2 / sum, F8::splat(0.0))
-}
-
-/// Power heuristic with exponent 2 (as [`super::path`]).
-#[inline(always)]
-fn mis(a: f32, b: f32) -> f32 {
-    let (a2, b2) = (a * a, b * b);
-    if a2 + b2 > 0.0 { a2 / (a2 + b2) } else { 0.0 }
 }
 
 /// A splat of `C` channels (mono fills all three, as a mono spectrum is).
