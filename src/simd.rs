@@ -1,10 +1,11 @@
-//! Eight `f32` lanes as one value, [`F8`], for code that runs paths in lockstep (the line-of-sight
-//! path tracer's lanes and their ray packets): arithmetic, comparisons
-//! into lane masks ([`M8`]) and selects, written once. On x86-64 an `F8` is an AVX2 vector, and its
-//! operations must run inside functions compiled for AVX2 and FMA (`#[target_feature(enable =
-//! "avx2,fma")]`, after run-time detection: [`available`]); elsewhere it is an array, lane by lane.
-//! Either way every lane is rounded as the scalar operation would be (multiply-adds fused in both),
-//! so the two give the same bits.
+//! Eight `f32` lanes as one value, [`F8`]: arithmetic, comparisons into lane masks ([`M8`]) and
+//! selects, written once. On x86-64 an `F8` is an AVX2 vector — the eight-lane form of the
+//! geometry's SIMD tests (the BVH's node test and the small-scene scan, `geometry/wide.rs`) and
+//! the lanes of paths traced in lockstep (the line-of-sight path tracer's and their ray packets) —
+//! and its operations must run inside functions compiled for AVX2 (and FMA for
+//! [`F8::mul_add`]: `#[target_feature(enable = "avx2,fma")]`, after run-time detection:
+//! [`available`]); elsewhere it is an array, lane by lane. Either way every lane is rounded as the
+//! scalar operation would be (multiply-adds fused in both), so the two give the same bits.
 
 /// Lanes per value.
 pub const LANES: usize = 8;
@@ -35,8 +36,9 @@ mod imp {
     #[derive(Clone, Copy, Debug)]
     pub struct M8(__m256);
 
-    // SAFETY (every `unsafe` block below): the operations are AVX2 and FMA instructions, and are
-    // inlined only into functions compiled for those features, run after `available()`.
+    // SAFETY (every `unsafe` block below): the operations are AVX2 instructions (FMA for
+    // `mul_add`), inlined only into functions compiled for them and run after their run-time
+    // detection.
     impl F8 {
         /// `x` in every lane.
         #[inline(always)]
@@ -52,8 +54,42 @@ mod imp {
         #[inline(always)]
         pub fn store(self) -> [f32; LANES] {
             let mut a = [0.0; LANES];
-            unsafe { _mm256_storeu_ps(a.as_mut_ptr(), self.0) };
+            self.store_into(&mut a);
             a
+        }
+        /// The lanes into `a`.
+        #[inline(always)]
+        pub fn store_into(self, a: &mut [f32; LANES]) {
+            unsafe { _mm256_storeu_ps(a.as_mut_ptr(), self.0) };
+        }
+        /// The lanes whose bits are `a`'s.
+        #[inline(always)]
+        pub fn load_bits(a: &[u32; LANES]) -> Self {
+            Self(unsafe { _mm256_castsi256_ps(_mm256_loadu_si256(a.as_ptr().cast())) })
+        }
+        /// The least lane (no lane is NaN).
+        #[inline(always)]
+        pub fn reduce_min(self) -> f32 {
+            unsafe {
+                let m = _mm_min_ps(
+                    _mm256_castps256_ps128(self.0),
+                    _mm256_extractf128_ps::<1>(self.0),
+                );
+                let m = _mm_min_ps(m, _mm_movehl_ps(m, m));
+                _mm_cvtss_f32(_mm_min_ss(m, _mm_shuffle_ps::<1>(m, m)))
+            }
+        }
+        /// The lanes where the sign bits of `a`, `b` and `c` are not all equal. Only each lane's
+        /// sign bit is set right: the bit that selects and [`M8::bits`] read, and that the masks'
+        /// bitwise logic combines lane by lane.
+        #[inline(always)]
+        pub fn signs_differ(a: Self, b: Self, c: Self) -> M8 {
+            unsafe {
+                M8(_mm256_or_ps(
+                    _mm256_xor_ps(a.0, b.0),
+                    _mm256_xor_ps(a.0, c.0),
+                ))
+            }
         }
         /// self · b + c, rounded once.
         #[inline(always)]

@@ -4,7 +4,8 @@
 //! so a wide test answers as the scalar one, bit for bit.
 //!
 //! Implementations: one AVX-512 vector of sixteen lanes ([`x86::Z16`]) and one AVX2 vector of
-//! eight ([`x86::Y8`]), whose functions are inlined into `#[target_feature]` callers picked at
+//! eight ([`x86::Y8`], the crate's [`crate::simd::F8`], which the lockstep path tracer's lanes use
+//! too), whose functions are inlined into `#[target_feature]` callers picked at
 //! run time ([`supported`]); and four lanes of glam's `Vec4` ([`Q4`]: SSE2 on x86-64, NEON on
 //! aarch64), which every CPU runs.
 
@@ -187,59 +188,24 @@ impl WideTest for Q4 {
 pub(super) mod x86 {
     use super::{Mask, Wide, WideClosest, WideTest};
     use std::arch::x86_64::*;
-    use std::ops::{BitAnd, BitOr, Not};
 
     #[derive(Clone, Copy)]
     pub struct Z16(__m512);
 
-    #[derive(Clone, Copy)]
-    pub struct Y8(__m256);
-
-    /// [`Y8`]'s mask: each lane's sign bit, which blends and `movemask` read (comparisons set
-    /// the whole lane).
-    #[derive(Clone, Copy)]
-    pub struct M8(__m256);
+    /// Eight lanes in one AVX2 vector: the crate's [`crate::simd::F8`], with its mask.
+    pub use crate::simd::{F8 as Y8, M8};
 
     // SAFETY (every block below): only reached from functions compiled with the extension,
     // called after it was detected on this CPU; loads and stores are of whole vectors within
     // arrays whose bounds the slices check.
-    impl BitAnd for M8 {
-        type Output = Self;
-        #[inline(always)]
-        fn bitand(self, b: Self) -> Self {
-            Self(unsafe { _mm256_and_ps(self.0, b.0) })
-        }
-    }
-
-    impl BitOr for M8 {
-        type Output = Self;
-        #[inline(always)]
-        fn bitor(self, b: Self) -> Self {
-            Self(unsafe { _mm256_or_ps(self.0, b.0) })
-        }
-    }
-
-    impl Not for M8 {
-        type Output = Self;
-        #[inline(always)]
-        fn not(self) -> Self {
-            Self(unsafe { _mm256_xor_ps(self.0, _mm256_castsi256_ps(_mm256_set1_epi32(-1))) })
-        }
-    }
-
     impl Mask for M8 {
-        /// Lane i: bit i of `bits` spread over the lane's 32 bits.
         #[inline(always)]
         fn from_bits(bits: u32) -> Self {
-            unsafe {
-                let lane_bits = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
-                let m = _mm256_and_si256(_mm256_set1_epi32(bits as i32), lane_bits);
-                Self(_mm256_castsi256_ps(_mm256_cmpeq_epi32(m, lane_bits)))
-            }
+            M8::from_bits(bits)
         }
         #[inline(always)]
         fn bits(self) -> u32 {
-            unsafe { _mm256_movemask_ps(self.0) as u32 }
+            M8::bits(self)
         }
     }
 
@@ -331,87 +297,79 @@ pub(super) mod x86 {
         const WIDTH: usize = 8;
         #[inline(always)]
         fn splat(x: f32) -> Self {
-            Self(unsafe { _mm256_set1_ps(x) })
+            Y8::splat(x)
         }
         #[inline(always)]
         fn load(a: &[f32], at: usize) -> Self {
-            Self(unsafe { _mm256_loadu_ps(a[at..at + 8].as_ptr()) })
+            Y8::load(eight(&a[at..at + 8]))
         }
         #[inline(always)]
         fn store_at(self, a: &mut [f32], at: usize) {
-            unsafe { _mm256_storeu_ps(a[at..at + 8].as_mut_ptr(), self.0) };
+            self.store_into((&mut a[at..at + 8]).try_into().expect("eight lanes"));
         }
         #[inline(always)]
         fn sub(self, b: Self) -> Self {
-            Self(unsafe { _mm256_sub_ps(self.0, b.0) })
+            self - b
         }
         #[inline(always)]
         fn mul(self, b: Self) -> Self {
-            Self(unsafe { _mm256_mul_ps(self.0, b.0) })
+            self * b
         }
         #[inline(always)]
         fn max(self, b: Self) -> Self {
-            Self(unsafe { _mm256_max_ps(self.0, b.0) })
+            Y8::max(self, b)
         }
         #[inline(always)]
         fn min(self, b: Self) -> Self {
-            Self(unsafe { _mm256_min_ps(self.0, b.0) })
+            Y8::min(self, b)
         }
         #[inline(always)]
         fn le(self, b: Self) -> M8 {
-            M8(unsafe { _mm256_cmp_ps::<_CMP_LE_OQ>(self.0, b.0) })
+            Y8::le(self, b)
         }
     }
 
     impl WideTest for Y8 {
         #[inline(always)]
         fn add(self, b: Self) -> Self {
-            Self(unsafe { _mm256_add_ps(self.0, b.0) })
+            self + b
         }
         #[inline(always)]
         fn div(self, b: Self) -> Self {
-            Self(unsafe { _mm256_div_ps(self.0, b.0) })
+            self / b
         }
         #[inline(always)]
         fn lt(self, b: Self) -> M8 {
-            M8(unsafe { _mm256_cmp_ps::<_CMP_LT_OQ>(self.0, b.0) })
+            Y8::lt(self, b)
         }
         #[inline(always)]
         fn eq(self, b: Self) -> M8 {
-            M8(unsafe { _mm256_cmp_ps::<_CMP_EQ_OQ>(self.0, b.0) })
+            Y8::eq(self, b)
         }
-        /// Only each lane's sign bit is set right: the bit that blends and `movemask` read, and
-        /// that the masks' bitwise logic combines lane by lane.
         #[inline(always)]
         fn signs_differ(a: Self, b: Self, c: Self) -> M8 {
-            unsafe {
-                M8(_mm256_or_ps(
-                    _mm256_xor_ps(a.0, b.0),
-                    _mm256_xor_ps(a.0, c.0),
-                ))
-            }
+            Y8::signs_differ(a, b, c)
         }
     }
 
     impl WideClosest for Y8 {
         #[inline(always)]
         fn load_bits(a: &[u32], at: usize) -> Self {
-            Self(unsafe { _mm256_castsi256_ps(_mm256_loadu_si256(a[at..at + 8].as_ptr().cast())) })
+            Y8::load_bits(eight(&a[at..at + 8]))
         }
         #[inline(always)]
         fn select(mask: M8, a: Self, b: Self) -> Self {
-            Self(unsafe { _mm256_blendv_ps(b.0, a.0, mask.0) })
+            Y8::select(mask, a, b)
         }
         #[inline(always)]
         fn reduce_min(self) -> f32 {
-            unsafe {
-                let m = _mm_min_ps(
-                    _mm256_castps256_ps128(self.0),
-                    _mm256_extractf128_ps::<1>(self.0),
-                );
-                let m = _mm_min_ps(m, _mm_movehl_ps(m, m));
-                _mm_cvtss_f32(_mm_min_ss(m, _mm_shuffle_ps::<1>(m, m)))
-            }
+            Y8::reduce_min(self)
         }
+    }
+
+    /// A slice of eight as an array.
+    #[inline(always)]
+    fn eight<T>(a: &[T]) -> &[T; 8] {
+        a.try_into().expect("eight lanes")
     }
 }
