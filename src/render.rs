@@ -889,6 +889,7 @@ impl<'a, T: Tracer> Sampling<'a, T> {
         let mut tasks = tasks.into_iter();
         if let Some(packet) = self.tracer.packet() {
             for task in tasks {
+                prefetch_film(task.buf); // as `lane` does
                 let (buf, sum) = (task.buf, task.sum);
                 packet.trace(
                     task.pixel,

@@ -46,11 +46,12 @@ fn los(scene: &Scene) -> &Los {
 }
 
 /// The Cornell box with an octahedron (radius 90, shaded by vertex normals along its radii, so
-/// normals vary over each face) on the small box, written as an OBJ file next to the test's
-/// scratch files.
-fn octahedron_obj() -> PathBuf {
-    let path =
-        std::env::temp_dir().join(format!("nlos_rs_los_octahedron_{}.obj", std::process::id()));
+/// normals vary over each face) on the small box, written as an OBJ file in the temporary folder,
+/// one per test (`tag`) so that tests running at once do not share it; the test removes it once
+/// its scenes are loaded.
+fn octahedron_obj(tag: &str) -> PathBuf {
+    let name = format!("nlos_rs_los_octahedron_{}_{tag}.obj", std::process::id());
+    let path = std::env::temp_dir().join(name);
     let mut s = String::new();
     let (c, r) = ([185.0, 255.0, 170.0], 90.0);
     let dirs = [
@@ -218,8 +219,9 @@ fn on_surface(v: [Vec3A; 3], n: Vec3A, rng: &mut Sampler) -> (Vec3A, Vec3A) {
 /// two surface points are blocked exactly when the scene says the points do not see each other.
 #[test]
 fn packet_rays_meet_what_the_bvh_meets() {
-    let obj = octahedron_obj();
+    let obj = octahedron_obj("rays");
     let scene = cbox(4, |t| add_octahedron(t, &obj));
+    std::fs::remove_file(&obj).expect("scratch file");
     let Some(packets) = PacketScene::new(&scene.prims, |i, j| {
         scene.prim_shape[i] == scene.prim_shape[j]
     }) else {
@@ -449,7 +451,7 @@ fn run(scene: &Scene, mono: bool, spp: u64, seed: u64, scalar: bool, threads: us
 /// bit-identical at 1, 2 and 3 threads.
 #[test]
 fn lockstep_agrees_with_the_scalar_tracer() {
-    let obj = octahedron_obj();
+    let obj = octahedron_obj("renders");
     let integrator = |extra: &'static str| {
         move |t: String| t.replace("<integer name=\"max_depth\" value=\"8\"/>", extra)
     };
@@ -477,6 +479,7 @@ fn lockstep_agrees_with_the_scalar_tracer() {
             false,
         ),
     ];
+    std::fs::remove_file(&obj).expect("scratch file");
     for (name, scene, mono) in &cases {
         assert!(
             PathPacket::new(scene, los(scene), *mono).is_some() || !nlos_rs::simd::available(),
