@@ -23,6 +23,7 @@ use nlos_rs::sampling::{
 use nlos_rs::scene::{Los, Setup};
 use nlos_rs::simd::F8;
 use std::collections::HashMap;
+use std::f32::consts::FRAC_1_SQRT_2;
 use std::path::{Path, PathBuf};
 
 fn cbox_dir() -> PathBuf {
@@ -46,7 +47,7 @@ fn los(scene: &Scene) -> &Los {
 }
 
 /// The Cornell box with an octahedron (radius 90, shaded by vertex normals along its radii, so
-/// normals vary over each face) on the small box, written as an OBJ file in the temporary folder,
+/// normals vary over each face) on the small box and a flat panel with curved normals, written as an OBJ file in the temporary folder,
 /// one per test (`tag`) so that tests running at once do not share it; the test removes it once
 /// its scenes are loaded.
 fn octahedron_obj(tag: &str) -> PathBuf {
@@ -84,6 +85,20 @@ fn octahedron_obj(tag: &str) -> PathBuf {
     ] {
         s += &format!("f {a}//{a} {b}//{b} {k}//{k}\n");
     }
+    // A flat panel facing the camera before the back wall, in the same shape: two triangles that
+    // make a parallelogram, its vertex normals no affine field.
+    for (v, n) in [
+        ([330., 250., 500.], [-0.5, -0.5, -FRAC_1_SQRT_2]),
+        ([480., 250., 500.], [0.5, -0.5, -FRAC_1_SQRT_2]),
+        ([480., 450., 500.], [0.5, 0.5, -FRAC_1_SQRT_2]),
+        ([330., 450., 500.], [0.8, 0., -0.6]),
+    ] {
+        s += &format!(
+            "v {} {} {}\nvn {} {} {}\n",
+            v[0], v[1], v[2], n[0], n[1], n[2]
+        );
+    }
+    s += "f 7//7 9//9 8//8\nf 7//7 10//10 9//9\n";
     std::fs::write(&path, s).expect("scratch file");
     path
 }
@@ -198,6 +213,15 @@ fn lane_uniforms_are_uniform_and_pairwise_independent() {
     }
 }
 
+/// The least barycentric coordinate of `x` (in the plane of triangle `v`): negative outside it.
+fn least_barycentric(v: [Vec3A; 3], x: Vec3A) -> f32 {
+    let (e1, e2, w) = (v[1] - v[0], v[2] - v[0], x - v[0]);
+    let big_n = e1.cross(e2);
+    let b1 = w.cross(e2).dot(big_n) / big_n.length_squared();
+    let b2 = e1.cross(w).dot(big_n) / big_n.length_squared();
+    b1.min(b2).min(1.0 - b1 - b2)
+}
+
 /// A uniform point of triangle `v` and a cosine-weighted direction about its normal `n`.
 fn on_surface(v: [Vec3A; 3], n: Vec3A, rng: &mut Sampler) -> (Vec3A, Vec3A) {
     let b = square_to_uniform_triangle(rng.next_2d());
@@ -237,7 +261,8 @@ fn packet_rays_meet_what_the_bvh_meets() {
         })
         .collect();
     let mut rng = Sampler::new(21, 0, 0);
-    let (mut inside, mut surface, mut escaped, mut ties, mut corners) = (0, 0, 0, 0, 0);
+    let (mut inside, mut surface, mut escaped, mut other, mut corners) = (0, 0, 0, 0, 0);
+    let mut grazes = 0;
     let (mut shadows, mut blocked) = (0, 0);
     for round in 0..40_000 {
         let mut p = Packet {
@@ -276,15 +301,20 @@ fn packet_rays_meet_what_the_bvh_meets() {
                 continue;
             }
             let bvh = scene.accel.intersect(o, d, tmin, f32::INFINITY);
-            // The room is open towards the camera: a ray may leave it, in both or in neither.
+            // The room is open towards the camera: a ray may leave it, in both or in neither —
+            // or graze an open edge, where the packet's slack takes what the BVH's exact test
+            // does not: its hit then lies on the triangle's boundary.
             let Some(hit) = bvh else {
-                assert_eq!(
-                    prim[l],
-                    u32::MAX,
-                    "ray from {o} along {d}: met {} at {}",
-                    prim[l],
-                    t[l]
-                );
+                if prim[l] != u32::MAX {
+                    let least = least_barycentric(tris[prim[l] as usize].0, o + d * t[l]);
+                    assert!(
+                        least.abs() <= 1e-5,
+                        "ray from {o} along {d}: met {} at {} ({least}) where the BVH meets nothing",
+                        prim[l],
+                        t[l]
+                    );
+                    grazes += 1;
+                }
                 escaped += 1;
                 continue;
             };
@@ -302,19 +332,24 @@ fn packet_rays_meet_what_the_bvh_meets() {
             let cos = tris[hit.prim as usize].1.dot(d).abs().max(1e-3);
             let slack = 4e-6 * (1.0 + o.abs().max_element() + hit.t) / cos;
             assert!((t[l] - hit.t).abs() <= slack, "{} against {}", t[l], hit.t);
-            // The same plane, or a tie between two coincident surfaces (a box's bottom on the
-            // floor).
-            if packets.plane(prim[l]) != packets.plane(hit.prim) {
-                assert!(
-                    (t[l] - hit.t).abs() <= slack,
-                    "ray from {o} along {d}: plane of {} at {} against {} at {}",
-                    prim[l],
-                    t[l],
-                    hit.prim,
-                    hit.t
-                );
-                ties += 1;
-            }
+            // In the BVH's plane (coincident surfaces, such as a box's bottom on the floor, share
+            // a key), and on the triangle reported (of a parallelogram, the half hit).
+            assert_eq!(
+                packets.plane(prim[l]),
+                packets.plane(hit.prim),
+                "ray from {o} along {d}: plane of {} at {} against {} at {}",
+                prim[l],
+                t[l],
+                hit.prim,
+                hit.t
+            );
+            let least = least_barycentric(tris[prim[l] as usize].0, o + d * t[l]);
+            assert!(
+                least >= -1e-5,
+                "ray from {o} along {d}: {} met outside it ({least})",
+                prim[l]
+            );
+            other += (prim[l] != hit.prim) as u32;
             // A shadow ray to a random point on another surface.
             if from[l].is_some() {
                 let j = ((rng.next_1d() * tris.len() as f32) as usize).min(tris.len() - 1);
@@ -375,10 +410,11 @@ fn packet_rays_meet_what_the_bvh_meets() {
         }
     }
     println!(
-        "{inside} rays from inside and {surface} from surfaces met the room ({ties} at a tie of two \
-         surfaces, {escaped} left it, {corners} met a surface at its origin's corner); {shadows} shadow rays ({blocked} blocked)"
+        "{inside} rays from inside and {surface} from surfaces met the room ({other} on another \
+         triangle than the BVH's, at a shared edge or a coincident surface, {escaped} left it, {grazes} of them grazing an open edge the packet meets, {corners} met a surface at its origin's corner); {shadows} shadow rays ({blocked} blocked)"
     );
-    assert!(escaped < inside + surface && ties + corners < (inside + surface) / 1000);
+    let met = inside + surface;
+    assert!(escaped < met && other < met / 100 && corners + grazes < met / 1000);
     assert!(blocked > shadows / 20 && blocked < shadows);
 }
 

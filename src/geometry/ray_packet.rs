@@ -26,15 +26,18 @@ pub const EDGE_SLACK: f32 = 1e-6;
 pub const NO_PLANE: f32 = -1.0;
 
 /// A triangle, or a parallelogram made of two, as the test reads it: (n, w), (a1, w1), (a2, w2),
-/// its plane key and the primitive a hit reports.
+/// its plane key and the primitives a hit reports.
 #[derive(Clone, Copy, Debug)]
 struct Tri {
     m: [[f32; 4]; 3],
     plane: f32,
     /// Two triangles of one shape that make a parallelogram (a rectangle's, a box face's): hit
-    /// where both barycentrics are in [0, 1], reported as the first of them.
+    /// where both barycentrics are in [0, 1].
     quad: bool,
+    /// The triangle hit where b1 + b2 ≤ 1, and where b1 + b2 > 1 (a parallelogram's second
+    /// triangle; `prim` again for a triangle).
     prim: u32,
+    far_prim: u32,
 }
 
 /// Eight rays `o + t d`, t in (tmin, tmax), each skipping the triangles of the plane keys `skip`.
@@ -97,12 +100,12 @@ impl PacketScene {
                 let gap = (v[q] + *other - v[a] - v[b]).abs().max_element();
                 (gap <= 1e-6 * (1.0 + v[q].abs().max_element())).then_some((j, [v[q], v[a], v[b]]))
             });
-            let (corner, quad) = match partner {
+            let (corner, far_prim) = match partner {
                 Some((j, c)) => {
                     paired[j] = true;
-                    (c, true)
+                    (c, j)
                 }
-                None => (v, false),
+                None => (v, i),
             };
             let n = (corner[1] - corner[0])
                 .cross(corner[2] - corner[0])
@@ -111,8 +114,9 @@ impl PacketScene {
             tris.push(Tri {
                 m: [[n.x, n.y, n.z, -n.dot(corner[0])], b1, b2],
                 plane: keys[i] as f32,
-                quad,
+                quad: far_prim != i,
                 prim: i as u32,
+                far_prim: far_prim as u32,
             });
         }
         let planes = keys.iter().map(|&k| k as f32).collect();
@@ -176,9 +180,10 @@ fn affine(m: &[f32; 4], x: &[F8; 3]) -> F8 {
     b(m[2]).mul_add(x[2], b(m[1]).mul_add(x[1], b(m[0]).mul_add(x[0], b(m[3]))))
 }
 
-/// `tri` against the rays within (tmin, `tmax`): distances and the lanes hit.
+/// `tri` against the rays within (tmin, `tmax`): distances, the lanes hit, and the lanes whose
+/// point has b1 + b2 > 1 (in a parallelogram's second triangle).
 #[inline(always)]
-fn test(tri: &Tri, r: &Rays, tmax: F8) -> (F8, M8) {
+fn test(tri: &Tri, r: &Rays, tmax: F8) -> (F8, M8, M8) {
     let n = &tri.m[0];
     let b = F8::splat;
     let nd = b(n[2]).mul_add(r.d[2], b(n[1]).mul_add(r.d[1], b(n[0]) * r.d[0]));
@@ -191,10 +196,11 @@ fn test(tri: &Tri, r: &Rays, tmax: F8) -> (F8, M8) {
     let (u, v) = (affine(&tri.m[1], &x), affine(&tri.m[2], &x));
     let key = b(tri.plane);
     let top = b(1.0 + EDGE_SLACK);
+    let sum = u + v;
     let inside = if tri.quad {
         u.le(top) & v.le(top)
     } else {
-        (u + v).le(top)
+        sum.le(top)
     };
     let hit = u.ge(b(-EDGE_SLACK))
         & v.ge(b(-EDGE_SLACK))
@@ -203,7 +209,7 @@ fn test(tri: &Tri, r: &Rays, tmax: F8) -> (F8, M8) {
         & t.lt(tmax)
         & key.ne(r.skip[0])
         & key.ne(r.skip[1]);
-    (t, hit)
+    (t, hit, sum.gt(b(1.0)))
 }
 
 #[cfg_attr(target_arch = "x86_64", target_feature(enable = "avx2,fma"))]
@@ -213,9 +219,14 @@ unsafe fn closest(tris: &[Tri], p: &Packet) -> ([f32; LANES], [u32; LANES]) {
     // The triangle's index in f32 lanes (exact below 2²⁴), chosen as the distance is.
     let mut prim = F8::splat(-1.0);
     for tri in tris {
-        let (t, hit) = test(tri, &r, best);
+        let (t, hit, far) = test(tri, &r, best);
         best = F8::select(hit, t, best);
-        prim = F8::select(hit, F8::splat(tri.prim as f32), prim);
+        let id = F8::select(
+            far,
+            F8::splat(tri.far_prim as f32),
+            F8::splat(tri.prim as f32),
+        );
+        prim = F8::select(hit, id, prim);
     }
     let k = prim.store();
     let mut index = [u32::MAX; LANES];
