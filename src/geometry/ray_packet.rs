@@ -59,6 +59,10 @@ pub struct Packet {
 #[derive(Clone, Debug)]
 pub struct PacketScene {
     tris: Vec<Tri>,
+    /// The triangles a segment between two points of the scene's surfaces may cross: all but
+    /// those whose plane has the whole scene on one side (the walls, floor and ceiling of a
+    /// room), which such a segment meets at most at an end.
+    occluders: Vec<Tri>,
     /// Each primitive's plane key.
     planes: Vec<f32>,
 }
@@ -71,7 +75,7 @@ impl PacketScene {
         if prims.len() > MAX_TRIANGLES || !crate::simd::available() {
             return None;
         }
-        let keys = plane_keys(prims)?;
+        let (keys, extent) = plane_keys(prims)?;
         let mut tris = Vec::new();
         let mut paired = vec![false; prims.len()];
         for i in 0..prims.len() {
@@ -120,7 +124,15 @@ impl PacketScene {
             });
         }
         let planes = keys.iter().map(|&k| k as f32).collect();
-        Some(Self { tris, planes })
+        let occluders = (tris.iter())
+            .filter(|t| !bounds_scene(&t.m[0], prims, 1e-5 * extent))
+            .copied()
+            .collect();
+        Some(Self {
+            tris,
+            occluders,
+            planes,
+        })
     }
 
     /// The plane key of primitive `prim`: triangles in one plane share it.
@@ -136,10 +148,10 @@ impl PacketScene {
     }
 
     /// The rays of the lanes `lanes` (bit per lane) that meet no triangle they do not skip, as
-    /// bits.
+    /// bits, for rays that join two points of the scene's surfaces (origin and `o + tmax d`).
     pub fn unoccluded(&self, r: &Packet, lanes: u32) -> u32 {
         // SAFETY: as in `closest`.
-        unsafe { unoccluded(&self.tris, r, lanes) }
+        unsafe { unoccluded(&self.occluders, r, lanes) }
     }
 }
 
@@ -252,10 +264,29 @@ unsafe fn unoccluded(tris: &[Tri], p: &Packet, lanes: u32) -> u32 {
     open
 }
 
+/// Whether every vertex of `prims` lies on one side of the plane n·x + w = 0 (`plane` = (n, w)),
+/// or within `tol` of it: a segment between two points of the scene then crosses the plane at
+/// most at its ends (which a shadow ray's open interval leaves out), or by the rounding of a point
+/// within `tol` of it.
+fn bounds_scene(plane: &[f32; 4], prims: &[Prim], tol: f32) -> bool {
+    let (mut below, mut above) = (false, false);
+    for p in prims {
+        let Prim::Triangle { v, .. } = p else {
+            return false;
+        };
+        for x in v {
+            let h = plane[0] * x.x + plane[1] * x.y + plane[2] * x.z + plane[3];
+            below |= h < -tol;
+            above |= h > tol;
+        }
+    }
+    !(below && above)
+}
+
 /// Plane keys of `prims` (`None` unless all are triangles): triangles in one plane, facing either
 /// way (unit normals and offsets equal to 1e-5, or opposite, the offsets relative to the scene's
-/// extent), share one, the lowest index among them.
-fn plane_keys(prims: &[Prim]) -> Option<Vec<u32>> {
+/// extent), share one, the lowest index among them; and that extent (at least 1).
+fn plane_keys(prims: &[Prim]) -> Option<(Vec<u32>, f32)> {
     let mut planes = Vec::with_capacity(prims.len());
     let mut extent = 1.0f32;
     for p in prims {
@@ -275,5 +306,5 @@ fn plane_keys(prims: &[Prim]) -> Option<Vec<u32>> {
         });
         keys.push(same.map_or(i as u32, |j| keys[j]));
     }
-    Some(keys)
+    Some((keys, extent))
 }
