@@ -4,8 +4,11 @@
 //!
 //! The test maps the ray's point on the triangle's plane to barycentrics by two affine maps
 //! computed once per triangle (Baldwin and Weber 2016, "Fast Ray-Triangle Intersections by
-//! Coordinate Transformation", JCGT 5(3)): t = −(n·o + w)/(n·d) with the plane's unit normal n
-//! and offset w, then b1 and b2 of x = o + t d, each a·x + w — in fused multiply-adds. A hit's
+//! Coordinate Transformation", JCGT 5(3)). In the coordinates of the normal's largest axis k (and
+//! i, j the other two) the plane is scaled to x_k + p_i x_i + p_j x_j + p_w = 0, so that
+//! t = −(o_k + p_i o_i + p_j o_j + p_w)/(d_k + p_i d_i + p_j d_j); a point of the plane is given
+//! by its x_i and x_j, and b1 and b2 are each a_i x_i + a_j x_j + w — ten fused multiply-adds and a
+//! division a triangle. Triangles are grouped by that axis, so each group's loop knows it. A hit's
 //! barycentrics may fall [`EDGE_SLACK`] outside the triangle, so that no ray slips between two
 //! triangles of a mesh through the f32 rounding of their shared edge.
 //!
@@ -25,12 +28,19 @@ pub const EDGE_SLACK: f32 = 1e-6;
 /// The plane key of no plane (a ray that starts off every surface).
 pub const NO_PLANE: f32 = -1.0;
 
-/// A triangle, or a parallelogram made of two, as the test reads it: (n, w), (a1, w1), (a2, w2),
-/// its plane key and the primitives a hit reports.
+/// A triangle, or a parallelogram made of two, as the test reads it, in the coordinates (x_k, x_i,
+/// x_j) of its normal's largest axis k (then i, j = k + 1, k + 2 mod 3): its plane scaled to
+/// x_k + p_i x_i + p_j x_j + p_w = 0, the maps of (x_i, x_j) in its plane to its barycentrics
+/// b1 and b2, its plane key and the primitives a hit reports.
 #[derive(Clone, Copy, Debug)]
 struct Tri {
-    m: [[f32; 4]; 3],
-    plane: f32,
+    /// (p_i, p_j, p_w), and (−p_i, −p_j).
+    plane: [f32; 5],
+    /// (a_i, a_j, w) of b1 = a_i x_i + a_j x_j + w, and of b2.
+    b: [[f32; 3]; 2],
+    key: f32,
+    /// The normal's largest axis k.
+    axis: usize,
     /// Two triangles of one shape that make a parallelogram (a rectangle's, a box face's): hit
     /// where both barycentrics are in [0, 1].
     quad: bool,
@@ -38,6 +48,33 @@ struct Tri {
     /// triangle; `prim` again for a triangle).
     prim: u32,
     far_prim: u32,
+}
+
+impl Tri {
+    /// The test of triangle `v` (or of the parallelogram `v[0]`, `v[1]`, `v[1] + v[2] − v[0]`).
+    fn new(v: [Vec3A; 3], key: f32, prim: usize, far_prim: usize) -> Self {
+        let n = (v[1] - v[0]).cross(v[2] - v[0]);
+        let axis = n.abs().max_position();
+        let (k, i, j) = (axis, (axis + 1) % 3, (axis + 2) % 3);
+        let (pi, pj) = (n[i] / n[k], n[j] / n[k]);
+        let pw = -(v[0][k] + pi * v[0][i] + pj * v[0][j]);
+        // Barycentrics in the plane from the projections onto (x_i, x_j): q − p0 = b1 e1 + b2 e2.
+        let (e1, e2) = (v[1] - v[0], v[2] - v[0]);
+        let det = e1[i] * e2[j] - e1[j] * e2[i];
+        let map = |ai: f32, aj: f32| [ai, aj, -(ai * v[0][i] + aj * v[0][j])];
+        Self {
+            plane: [pi, pj, pw, -pi, -pj],
+            b: [
+                map(e2[j] / det, -e2[i] / det),
+                map(-e1[j] / det, e1[i] / det),
+            ],
+            key,
+            axis,
+            quad: far_prim != prim,
+            prim: prim as u32,
+            far_prim: far_prim as u32,
+        }
+    }
 }
 
 /// Eight rays `o + t d`, t in (tmin, tmax), each skipping the triangles of the plane keys `skip`.
@@ -55,14 +92,38 @@ pub struct Packet {
     pub skip: [[f32; LANES]; 2],
 }
 
+/// Triangles to test, grouped by kind (parallelograms first) and by their normal's largest axis:
+/// each group is tested by its own loop.
+#[derive(Clone, Debug)]
+struct Tris {
+    tris: Vec<Tri>,
+    /// Group g = 3 · (not a parallelogram) + axis is `tris[starts[g]..starts[g + 1]]`.
+    starts: [usize; 7],
+}
+
+impl Tris {
+    fn new(mut tris: Vec<Tri>) -> Self {
+        let group = |t: &Tri| 3 * (!t.quad as usize) + t.axis;
+        tris.sort_by_key(group);
+        let starts = std::array::from_fn(|g| tris.iter().filter(|t| group(t) < g).count());
+        Self { tris, starts }
+    }
+
+    /// The triangles of group `g`.
+    #[inline(always)]
+    fn group(&self, g: usize) -> &[Tri] {
+        &self.tris[self.starts[g]..self.starts[g + 1]]
+    }
+}
+
 /// The triangles of a small scene, ready for packets.
 #[derive(Clone, Debug)]
 pub struct PacketScene {
-    tris: Vec<Tri>,
+    tris: Tris,
     /// The triangles a segment between two points of the scene's surfaces may cross: all but
     /// those whose plane has the whole scene on one side (the walls, floor and ceiling of a
     /// room), which such a segment meets at most at an end.
-    occluders: Vec<Tri>,
+    occluders: Tris,
     /// Each primitive's plane key.
     planes: Vec<f32>,
 }
@@ -76,13 +137,13 @@ impl PacketScene {
             return None;
         }
         let (keys, extent) = plane_keys(prims)?;
-        let mut tris = Vec::new();
+        let (mut tris, mut occluders) = (Vec::new(), Vec::new());
         let mut paired = vec![false; prims.len()];
         for i in 0..prims.len() {
             if paired[i] {
                 continue;
             }
-            let Prim::Triangle { v, .. } = prims[i] else {
+            let Prim::Triangle { v, n } = prims[i] else {
                 unreachable!("plane_keys took triangles only");
             };
             // A later triangle of the same shape and plane that shares an edge with this one and
@@ -111,26 +172,16 @@ impl PacketScene {
                 }
                 None => (v, i),
             };
-            let n = (corner[1] - corner[0])
-                .cross(corner[2] - corner[0])
-                .normalize();
-            let [b1, b2] = barycentric_maps(corner);
-            tris.push(Tri {
-                m: [[n.x, n.y, n.z, -n.dot(corner[0])], b1, b2],
-                plane: keys[i] as f32,
-                quad: far_prim != i,
-                prim: i as u32,
-                far_prim: far_prim as u32,
-            });
+            let tri = Tri::new(corner, keys[i] as f32, i, far_prim);
+            tris.push(tri);
+            if !bounds_scene(n, v[0], prims, 1e-5 * extent) {
+                occluders.push(tri);
+            }
         }
         let planes = keys.iter().map(|&k| k as f32).collect();
-        let occluders = (tris.iter())
-            .filter(|t| !bounds_scene(&t.m[0], prims, 1e-5 * extent))
-            .copied()
-            .collect();
         Some(Self {
-            tris,
-            occluders,
+            tris: Tris::new(tris),
+            occluders: Tris::new(occluders),
             planes,
         })
     }
@@ -140,7 +191,8 @@ impl PacketScene {
         self.planes[prim as usize]
     }
 
-    /// Each ray's closest hit among the triangles it does not skip: distance and triangle
+    /// Each ray's closest hit among the triangles it does not skip (`skip[0]`'s: a ray from a
+    /// surface skips its own plane; `skip[1]` is for shadow rays), distance and triangle
     /// (`u32::MAX` for none).
     pub fn closest(&self, r: &Packet) -> ([f32; LANES], [u32; LANES]) {
         // SAFETY: the scene was made where the CPU runs `F8`'s vectors.
@@ -169,6 +221,8 @@ pub fn barycentric_maps(v: [Vec3A; 3]) -> [[f32; 4]; 2] {
 struct Rays {
     o: [F8; 3],
     d: [F8; 3],
+    /// −d.
+    neg_d: [F8; 3],
     tmin: F8,
     skip: [F8; 2],
 }
@@ -176,70 +230,89 @@ struct Rays {
 impl Rays {
     #[inline(always)]
     fn new(r: &Packet) -> Self {
+        let d = r.d.each_ref().map(F8::load);
         Self {
             o: r.o.each_ref().map(F8::load),
-            d: r.d.each_ref().map(F8::load),
+            d,
+            neg_d: d.map(|d| F8::splat(0.0) - d),
             tmin: F8::load(&r.tmin),
             skip: r.skip.each_ref().map(F8::load),
         }
     }
 }
 
-/// a·x + w in fused multiply-adds, for the map `m` = (a, w).
+/// `tri` (a parallelogram if `QUAD`, its normal's largest axis `K`) against the rays within
+/// (tmin, `tmax`), skipping the plane keys of `r.skip[..SKIPS]`: distances, the lanes hit, and the
+/// lanes whose point has b1 + b2 > 1 (in a parallelogram's second triangle).
 #[inline(always)]
-fn affine(m: &[f32; 4], x: &[F8; 3]) -> F8 {
+fn test<const QUAD: bool, const K: usize, const SKIPS: usize>(
+    tri: &Tri,
+    r: &Rays,
+    tmax: F8,
+) -> (F8, M8, M8) {
+    let (i, j) = ((K + 1) % 3, (K + 2) % 3);
     let b = F8::splat;
-    b(m[2]).mul_add(x[2], b(m[1]).mul_add(x[1], b(m[0]).mul_add(x[0], b(m[3]))))
-}
-
-/// `tri` against the rays within (tmin, `tmax`): distances, the lanes hit, and the lanes whose
-/// point has b1 + b2 > 1 (in a parallelogram's second triangle).
-#[inline(always)]
-fn test(tri: &Tri, r: &Rays, tmax: F8) -> (F8, M8, M8) {
-    let n = &tri.m[0];
-    let b = F8::splat;
-    let nd = b(n[2]).mul_add(r.d[2], b(n[1]).mul_add(r.d[1], b(n[0]) * r.d[0]));
-    let t = (b(0.0) - affine(n, &r.o)) / nd;
-    let x = [
-        r.d[0].mul_add(t, r.o[0]),
-        r.d[1].mul_add(t, r.o[1]),
-        r.d[2].mul_add(t, r.o[2]),
-    ];
-    let (u, v) = (affine(&tri.m[1], &x), affine(&tri.m[2], &x));
-    let key = b(tri.plane);
+    let p = &tri.plane;
+    // t = −(o_k + p_i o_i + p_j o_j + p_w) / (d_k + p_i d_i + p_j d_j).
+    let num = b(p[0]).mul_add(r.o[i], b(p[1]).mul_add(r.o[j], r.o[K] + b(p[2])));
+    let den = b(p[3]).mul_add(r.d[i], b(p[4]).mul_add(r.d[j], r.neg_d[K]));
+    let t = num / den;
+    let (xi, xj) = (r.d[i].mul_add(t, r.o[i]), r.d[j].mul_add(t, r.o[j]));
+    let [u, v] = tri
+        .b
+        .map(|m| b(m[0]).mul_add(xi, b(m[1]).mul_add(xj, b(m[2]))));
+    let key = b(tri.key);
     let top = b(1.0 + EDGE_SLACK);
     let sum = u + v;
-    let inside = if tri.quad {
+    let inside = if QUAD {
         u.le(top) & v.le(top)
     } else {
         sum.le(top)
     };
-    let hit = u.ge(b(-EDGE_SLACK))
-        & v.ge(b(-EDGE_SLACK))
-        & inside
-        & t.gt(r.tmin)
-        & t.lt(tmax)
-        & key.ne(r.skip[0])
-        & key.ne(r.skip[1]);
+    let hit = (r.skip[..SKIPS].iter()).fold(
+        u.ge(b(-EDGE_SLACK)) & v.ge(b(-EDGE_SLACK)) & inside & t.gt(r.tmin) & t.lt(tmax),
+        |hit, &skip| hit & key.ne(skip),
+    );
     (t, hit, sum.gt(b(1.0)))
 }
 
+/// The closest hits of the group of parallelograms (`QUAD`) or triangles of largest axis `K`,
+/// into the distances `best` and the triangles `prim` so far.
+#[inline(always)]
+fn closest_in<const QUAD: bool, const K: usize>(
+    tris: &[Tri],
+    r: &Rays,
+    best: &mut F8,
+    prim: &mut F8,
+) {
+    for tri in tris {
+        let (t, hit, far) = test::<QUAD, K, 1>(tri, r, *best);
+        *best = F8::select(hit, t, *best);
+        let id = if QUAD {
+            F8::select(
+                far,
+                F8::splat(tri.far_prim as f32),
+                F8::splat(tri.prim as f32),
+            )
+        } else {
+            F8::splat(tri.prim as f32)
+        };
+        *prim = F8::select(hit, id, *prim);
+    }
+}
+
 #[cfg_attr(target_arch = "x86_64", target_feature(enable = "avx2,fma"))]
-unsafe fn closest(tris: &[Tri], p: &Packet) -> ([f32; LANES], [u32; LANES]) {
+unsafe fn closest(tris: &Tris, p: &Packet) -> ([f32; LANES], [u32; LANES]) {
     let r = Rays::new(p);
     let mut best = F8::load(&p.tmax);
     // The triangle's index in f32 lanes (exact below 2²⁴), chosen as the distance is.
     let mut prim = F8::splat(-1.0);
-    for tri in tris {
-        let (t, hit, far) = test(tri, &r, best);
-        best = F8::select(hit, t, best);
-        let id = F8::select(
-            far,
-            F8::splat(tri.far_prim as f32),
-            F8::splat(tri.prim as f32),
-        );
-        prim = F8::select(hit, id, prim);
-    }
+    closest_in::<true, 0>(tris.group(0), &r, &mut best, &mut prim);
+    closest_in::<true, 1>(tris.group(1), &r, &mut best, &mut prim);
+    closest_in::<true, 2>(tris.group(2), &r, &mut best, &mut prim);
+    closest_in::<false, 0>(tris.group(3), &r, &mut best, &mut prim);
+    closest_in::<false, 1>(tris.group(4), &r, &mut best, &mut prim);
+    closest_in::<false, 2>(tris.group(5), &r, &mut best, &mut prim);
     let k = prim.store();
     let mut index = [u32::MAX; LANES];
     for l in 0..LANES {
@@ -250,32 +323,50 @@ unsafe fn closest(tris: &[Tri], p: &Packet) -> ([f32; LANES], [u32; LANES]) {
     (best.store(), index)
 }
 
+/// Clears from `open` the lanes the group of parallelograms (`QUAD`) or triangles of largest axis
+/// `K` blocks; whether any stays open.
+#[inline(always)]
+fn open_past<const QUAD: bool, const K: usize>(
+    tris: &[Tri],
+    r: &Rays,
+    tmax: F8,
+    open: &mut u32,
+) -> bool {
+    for tri in tris {
+        *open &= !test::<QUAD, K, 2>(tri, r, tmax).1.bits();
+        if *open == 0 {
+            return false;
+        }
+    }
+    true
+}
+
 #[cfg_attr(target_arch = "x86_64", target_feature(enable = "avx2,fma"))]
-unsafe fn unoccluded(tris: &[Tri], p: &Packet, lanes: u32) -> u32 {
+unsafe fn unoccluded(tris: &Tris, p: &Packet, lanes: u32) -> u32 {
     let r = Rays::new(p);
     let tmax = F8::load(&p.tmax);
     let mut open = lanes;
-    for tri in tris {
-        open &= !test(tri, &r, tmax).1.bits();
-        if open == 0 {
-            break;
-        }
-    }
+    let _ = open_past::<true, 0>(tris.group(0), &r, tmax, &mut open)
+        && open_past::<true, 1>(tris.group(1), &r, tmax, &mut open)
+        && open_past::<true, 2>(tris.group(2), &r, tmax, &mut open)
+        && open_past::<false, 0>(tris.group(3), &r, tmax, &mut open)
+        && open_past::<false, 1>(tris.group(4), &r, tmax, &mut open)
+        && open_past::<false, 2>(tris.group(5), &r, tmax, &mut open);
     open
 }
 
-/// Whether every vertex of `prims` lies on one side of the plane n·x + w = 0 (`plane` = (n, w)),
+/// Whether every vertex of `prims` lies on one side of the plane through `at` of unit normal `n`,
 /// or within `tol` of it: a segment between two points of the scene then crosses the plane at
 /// most at its ends (which a shadow ray's open interval leaves out), or by the rounding of a point
 /// within `tol` of it.
-fn bounds_scene(plane: &[f32; 4], prims: &[Prim], tol: f32) -> bool {
+fn bounds_scene(n: Vec3A, at: Vec3A, prims: &[Prim], tol: f32) -> bool {
     let (mut below, mut above) = (false, false);
     for p in prims {
         let Prim::Triangle { v, .. } = p else {
             return false;
         };
         for x in v {
-            let h = plane[0] * x.x + plane[1] * x.y + plane[2] * x.z + plane[3];
+            let h = n.dot(*x - at);
             below |= h < -tol;
             above |= h > tol;
         }
