@@ -9,6 +9,7 @@
 
 use crate::error::{NlosError, Result};
 use crate::props::Props;
+use std::ops::Range;
 
 /// The frequency set of a phasor film.
 #[derive(Clone, Debug, PartialEq)]
@@ -17,9 +18,21 @@ pub struct Phasor {
     pub frequencies: Vec<f64>,
     /// The FFT's spacing 1/(n·w), by which consecutive FFT indices' frequencies differ.
     spacing: f64,
-    /// Per frequency, how far it lies from its run's first frequency plus whole spacings (its and
-    /// the first's rounding to f32); `None` where a run of consecutive FFT indices starts.
-    drift: Vec<Option<f64>>,
+    /// The runs of `frequencies` at consecutive FFT indices.
+    runs: Vec<Range<usize>>,
+    /// Per frequency, −2π times how far it lies from its run's first frequency plus whole
+    /// spacings (its and the first's rounding to f32; 0 for the first): the angle its phasor
+    /// turns off the grid's, per unit optical path.
+    rate: Vec<f64>,
+}
+
+/// Frequencies whose phasors a run advances together, each turned by four spacings a step.
+const LANES: usize = 4;
+
+/// The complex product of the phasors (sin, cos) `a` and `b`.
+#[inline(always)]
+fn turn_by(a: (f64, f64), b: (f64, f64)) -> (f64, f64) {
+    (a.0 * b.1 + a.1 * b.0, a.1 * b.1 - a.0 * b.0)
 }
 
 impl Phasor {
@@ -44,17 +57,21 @@ impl Phasor {
             .map(|k| (signed(k) / (n * bin_width)) as f32 as f64)
             .collect();
         let spacing = 1.0 / (n * bin_width);
-        let mut first = 0;
-        let drift = (lo..=hi)
-            .enumerate()
-            .map(|(j, k)| {
-                if k == lo || signed(k) != signed(k - 1) + 1.0 {
-                    first = j;
-                    return None;
-                }
-                Some(frequencies[j] - frequencies[first] - (j - first) as f64 * spacing)
-            })
-            .collect();
+        let mut runs: Vec<Range<usize>> = Vec::new();
+        for (j, k) in (lo..=hi).enumerate() {
+            match runs.last_mut() {
+                Some(run) if signed(k) == signed(k - 1) + 1.0 => run.end = j + 1,
+                _ => runs.push(j..j + 1),
+            }
+        }
+        let mut rate = vec![0.0; frequencies.len()];
+        for run in &runs {
+            for j in run.clone() {
+                let drift =
+                    frequencies[j] - frequencies[run.start] - (j - run.start) as f64 * spacing;
+                rate[j] = -std::f64::consts::TAU * drift;
+            }
+        }
         if frequencies.is_empty() || frequencies.len() > 65_536 {
             return Err(NlosError::prop(
                 &p.plugin,
@@ -68,7 +85,8 @@ impl Phasor {
         Ok(Self {
             frequencies,
             spacing,
-            drift,
+            runs,
+            rate,
         })
     }
 
@@ -76,43 +94,99 @@ impl Phasor {
     /// laid out as [re, im] per frequency.
     ///
     /// The phasors e^{−2πi f d} of a run of consecutive FFT frequencies are one rotation apart,
-    /// e^{−2πi Δ d} for the spacing Δ: each is the one before times that rotation (two sines and
-    /// cosines a contribution instead of one per frequency, which took most of a phasor render's
-    /// time), then turned by the frequency's small drift off the grid (its rounding to f32) from
-    /// the sine's and cosine's Taylor polynomials. Both are exact to about 1e-14, against the
-    /// 6e-8 of the f32 sums; a drift whose turn is not small is computed directly.
+    /// e^{−2πi Δ d} for the spacing Δ: a run's first [`LANES`] phasors are its first one turned
+    /// by that rotation, and each later one is the phasor [`LANES`] before it turned by that
+    /// rotation's [`LANES`]-th power (two sines and cosines a contribution instead of one per
+    /// frequency, which took most of a phasor render's time). Each grid phasor is then turned by
+    /// its frequency's small drift off the grid (its rounding to f32), from the sine's and
+    /// cosine's Taylor polynomials. Both are exact to about 1e-14, against the 6e-8 of the f32
+    /// sums; a drift whose turn is not small is computed directly. The [`LANES`] frequencies of a
+    /// step are independent: with AVX2 they are one vector (the same operations, so the same
+    /// bits).
     #[inline]
     pub fn put(&self, d: f64, v: f32, out: &mut [f32]) {
+        #[cfg(target_arch = "x86_64")]
+        if crate::simd::available() {
+            // SAFETY: the CPU runs AVX2 (and FMA, which `put_lanes` does not use: Rust fuses no
+            // multiply-add it is not asked to).
+            return unsafe { self.put_avx2(d, v, out) };
+        }
+        self.put_lanes(d, v, out)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn put_avx2(&self, d: f64, v: f32, out: &mut [f32]) {
+        self.put_lanes(d, v, out)
+    }
+
+    #[inline(always)]
+    fn put_lanes(&self, d: f64, v: f32, out: &mut [f32]) {
         use std::f64::consts::TAU;
         let turn = |f: f64| (-TAU * f * d).rem_euclid(TAU).sin_cos();
-        let (rs, rc) = turn(self.spacing);
-        let (mut s, mut c) = (0.0, 1.0);
-        for ((&f, &drift), re_im) in self
-            .frequencies
-            .iter()
-            .zip(&self.drift)
-            .zip(out.chunks_exact_mut(2))
-        {
-            let (ps, pc) = if let Some(drift) = drift {
-                (s, c) = (s * rc + c * rs, c * rc - s * rs);
-                let a = -TAU * drift * d;
-                if a.abs() < 1e-3 {
-                    // sin a and cos a to a⁵ and a⁴ (truncation below 2e-21).
-                    let a2 = a * a;
-                    let (sa, ca) = (
-                        a * (1.0 - a2 / 6.0 * (1.0 - a2 / 20.0)),
-                        1.0 - a2 / 2.0 * (1.0 - a2 / 12.0),
-                    );
-                    (s * ca + c * sa, c * ca - s * sa)
+        let step = turn(self.spacing);
+        let stride = turn_by(turn_by(step, step), turn_by(step, step));
+        for run in &self.runs {
+            // The grid phasors of frequencies j..j + LANES, as sines and cosines.
+            let (mut s, mut c) = ([0.0; LANES], [1.0; LANES]);
+            (s[0], c[0]) = turn(self.frequencies[run.start]);
+            for k in 1..LANES {
+                (s[k], c[k]) = turn_by((s[k - 1], c[k - 1]), step);
+            }
+            let mut j = run.start;
+            while j < run.end {
+                let n = (run.end - j).min(LANES);
+                let a: [f64; LANES] =
+                    std::array::from_fn(|k| self.rate[(j + k).min(run.end - 1)] * d);
+                if n == LANES && a.iter().all(|a| a.abs() < 1e-3) {
+                    let (ps, pc) = drift_turn(s, c, a);
+                    let re_im: &mut [f32; 2 * LANES] = (&mut out[2 * j..2 * (j + LANES)])
+                        .try_into()
+                        .expect("a frequency's [re, im] per frequency");
+                    let add: [f32; 2 * LANES] = std::array::from_fn(|i| {
+                        v * if i % 2 == 0 { pc[i / 2] } else { ps[i / 2] } as f32
+                    });
+                    for (o, a) in re_im.iter_mut().zip(add) {
+                        *o += a;
+                    }
                 } else {
-                    turn(f)
+                    for k in 0..n {
+                        let (ps, pc) = if a[k].abs() < 1e-3 {
+                            let (ps, pc) = drift_turn([s[k]], [c[k]], [a[k]]);
+                            (ps[0], pc[0])
+                        } else {
+                            turn(self.frequencies[j + k])
+                        };
+                        out[2 * (j + k)] += v * pc as f32;
+                        out[2 * (j + k) + 1] += v * ps as f32;
+                    }
                 }
-            } else {
-                (s, c) = turn(f);
-                (s, c)
-            };
-            re_im[0] += v * pc as f32;
-            re_im[1] += v * ps as f32;
+                (s, c) = turn_lanes(s, c, stride);
+                j += n;
+            }
         }
     }
+}
+
+/// The phasors (`s`, `c`) turned by the small angles `a`: sin a and cos a to a⁵ and a⁴
+/// (truncation below 2e-21), in products (a division by a constant is not one).
+#[inline(always)]
+fn drift_turn<const N: usize>(s: [f64; N], c: [f64; N], a: [f64; N]) -> ([f64; N], [f64; N]) {
+    let a2 = a.map(|a| a * a);
+    let sa: [f64; N] =
+        std::array::from_fn(|k| a[k] * (1.0 - a2[k] * (1.0 / 6.0 - a2[k] * (1.0 / 120.0))));
+    let ca: [f64; N] = std::array::from_fn(|k| 1.0 - a2[k] * (0.5 - a2[k] * (1.0 / 24.0)));
+    (
+        std::array::from_fn(|k| s[k] * ca[k] + c[k] * sa[k]),
+        std::array::from_fn(|k| c[k] * ca[k] - s[k] * sa[k]),
+    )
+}
+
+/// The phasors (`s`, `c`) each turned by `by`.
+#[inline(always)]
+fn turn_lanes(s: [f64; LANES], c: [f64; LANES], by: (f64, f64)) -> ([f64; LANES], [f64; LANES]) {
+    (
+        std::array::from_fn(|k| s[k] * by.1 + c[k] * by.0),
+        std::array::from_fn(|k| c[k] * by.1 - s[k] * by.0),
+    )
 }
