@@ -488,6 +488,13 @@ fn run(scene: &Scene, mono: bool, spp: u64, seed: u64, scalar: bool, threads: us
 #[test]
 fn lockstep_agrees_with_the_scalar_tracer() {
     let obj = octahedron_obj("renders");
+    // A triangle facing the room before the back wall (a light part that is no parallelogram).
+    let tri = std::env::temp_dir().join(format!("nlos_rs_los_triangle_{}.obj", std::process::id()));
+    std::fs::write(
+        &tri,
+        "v 100 100 540\nv 100 200 540\nv 200 100 540\nf 1 2 3\n",
+    )
+    .expect("scratch file");
     let integrator = |extra: &'static str| {
         move |t: String| t.replace("<integer name=\"max_depth\" value=\"8\"/>", extra)
     };
@@ -514,8 +521,30 @@ fn lockstep_agrees_with_the_scalar_tracer() {
             }),
             false,
         ),
+        (
+            "lit by the luminaire, the small box's six faces and a triangle, mono",
+            cbox(6, |t| {
+                let glow = |rgb: &str| {
+                    format!(
+                        "<emitter type=\"area\"><rgb name=\"radiance\" value=\"{rgb}\"/></emitter>"
+                    )
+                };
+                let triangle = format!(
+                    "<shape type=\"obj\"><string name=\"filename\" value=\"{}\"/><ref id=\"white\"/>{}</shape>\n</scene>",
+                    tri.display(),
+                    glow("4, 4, 4")
+                );
+                t.replace(
+                    "value=\"meshes/cbox_smallbox.obj\"/>",
+                    &format!("value=\"meshes/cbox_smallbox.obj\"/>{}", glow("3, 2, 1")),
+                )
+                .replace("</scene>", &triangle)
+            }),
+            true,
+        ),
     ];
     std::fs::remove_file(&obj).expect("scratch file");
+    std::fs::remove_file(&tri).expect("scratch file");
     for (name, scene, mono) in &cases {
         assert!(
             PathPacket::new(scene, los(scene), *mono).is_some() || !nlos_rs::simd::available(),

@@ -126,6 +126,8 @@ pub struct PacketScene {
     occluders: Tris,
     /// Each primitive's plane key.
     planes: Vec<f32>,
+    /// The parallelograms tested as one: (first, second, corners).
+    parallelograms: Vec<(u32, u32, [Vec3A; 3])>,
 }
 
 impl PacketScene {
@@ -137,7 +139,7 @@ impl PacketScene {
             return None;
         }
         let (keys, extent) = plane_keys(prims)?;
-        let (mut tris, mut occluders) = (Vec::new(), Vec::new());
+        let (mut tris, mut occluders, mut parallelograms) = (Vec::new(), Vec::new(), Vec::new());
         let mut paired = vec![false; prims.len()];
         for i in 0..prims.len() {
             if paired[i] {
@@ -168,6 +170,7 @@ impl PacketScene {
             let (corner, far_prim) = match partner {
                 Some((j, c)) => {
                     paired[j] = true;
+                    parallelograms.push((i as u32, j as u32, c));
                     (c, j)
                 }
                 None => (v, i),
@@ -183,7 +186,14 @@ impl PacketScene {
             tris: Tris::new(tris),
             occluders: Tris::new(occluders),
             planes,
+            parallelograms,
         })
+    }
+
+    /// The pairs of triangles tested as one parallelogram: (first, second, corners c), the
+    /// parallelogram c0 + a (c1 − c0) + b (c2 − c0) for a, b in [0, 1].
+    pub fn parallelograms(&self) -> &[(u32, u32, [Vec3A; 3])] {
+        &self.parallelograms
     }
 
     /// The plane key of primitive `prim`: triangles in one plane share it.

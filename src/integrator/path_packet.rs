@@ -97,14 +97,36 @@ impl Smooth {
     }
 }
 
-/// A triangle of an area light, as next-event estimation samples it: a vertex, the two edges
-/// from it, and the triangle (its normals, plane and emitter are its [`Surface`]'s).
+/// A part of an area light that next-event estimation samples uniformly: a triangle, or two
+/// that make a parallelogram (a rectangle's, as the packet test pairs them), as a corner and the
+/// two edges from it, with what a light sample needs of its surface and emitter.
 #[derive(Clone, Copy, Debug)]
-struct LightTri {
+struct LightPart {
     v0: [f32; 3],
     e1: [f32; 3],
     e2: [f32; 3],
-    prim: u32,
+    /// A parallelogram, v0 + a e1 + b e2 for a, b in [0, 1] (else the triangle of a + b ≤ 1).
+    quad: bool,
+    /// Unit shading and geometric normals ([`Surface::n`], [`Surface::ng`]), plane key.
+    n: [f32; 3],
+    ng: [f32; 3],
+    plane: f32,
+    /// The emitter's radiance and its area density under next-event estimation.
+    radiance: [f32; 3],
+    area_pdf: f32,
+}
+
+/// The light parts the lanes chose, in lanes.
+struct LightLanes<const C: usize> {
+    v0: [F8; 3],
+    e1: [F8; 3],
+    e2: [F8; 3],
+    quad: M8,
+    n: [F8; 3],
+    ng: [F8; 3],
+    plane: F8,
+    radiance: [F8; C],
+    area_pdf: F8,
 }
 
 /// An area light: its radiance and the area density of its points under next-event estimation,
@@ -123,8 +145,8 @@ pub struct PathPacket<'a> {
     height: usize,
     geometry: PacketScene,
     surfaces: Vec<Surface>,
-    lights: Vec<LightTri>,
-    /// Cumulative probability of each light triangle (the last is 1).
+    lights: Vec<LightPart>,
+    /// Cumulative probability of each light part (the last is 1).
     light_cdf: Vec<f32>,
     emitters: Vec<Emitter>,
     /// Per triangle, its vertex normals as lanes interpolate them (read for [`Surface::curved`]
@@ -171,6 +193,12 @@ impl<'a> PathPacket<'a> {
             });
         }
         let (mut surfaces, mut lights, mut weights) = (Vec::new(), Vec::new(), Vec::new());
+        // Light triangles that are a parallelogram's second are sampled with its first.
+        let mut parallelogram = vec![None; scene.prims.len()];
+        for &(first, second, corner) in geometry.parallelograms() {
+            parallelogram[first as usize] = Some(corner);
+            parallelogram[second as usize] = Some([Vec3A::NAN; 3]);
+        }
         let mut smooth = Vec::with_capacity(scene.prims.len());
         for (i, prim) in scene.prims.iter().enumerate() {
             let Prim::Triangle { v, n } = *prim else {
@@ -210,14 +238,23 @@ impl<'a> PathPacket<'a> {
                 emitter,
                 curved,
             });
-            if emitter != u32::MAX {
-                lights.push(LightTri {
-                    v0: v[0].to_array(),
-                    e1: (v[1] - v[0]).to_array(),
-                    e2: (v[2] - v[0]).to_array(),
-                    prim: i as u32,
+            let corner = parallelogram[i].unwrap_or(v);
+            if emitter != u32::MAX && !corner[0].is_nan() {
+                let e = &emitters[emitter as usize];
+                let quad = parallelogram[i].is_some();
+                lights.push(LightPart {
+                    v0: corner[0].to_array(),
+                    e1: (corner[1] - corner[0]).to_array(),
+                    e2: (corner[2] - corner[0]).to_array(),
+                    quad,
+                    n: n.to_array(),
+                    ng: ng.to_array(),
+                    plane: geometry.plane(i as u32),
+                    radiance: e.radiance,
+                    area_pdf: e.area_pdf,
                 });
-                weights.push(prim.area() as f64 * emitters[emitter as usize].area_pdf as f64);
+                let area = prim.area() as f64 * if quad { 2.0 } else { 1.0 };
+                weights.push(area * e.area_pdf as f64);
             }
         }
         let total: f64 = weights.iter().sum();
@@ -347,7 +384,7 @@ impl<'a> PathPacket<'a> {
             ];
             // Lanes on triangles whose vertex normals differ take the interpolated normal.
             if curved != 0 {
-                let (ni, fi) = interpolated_normals(&self.smooth, &prim, &x);
+                let (ni, fi) = interpolated_normals(&self.smooth, &prim, curved, &x);
                 let m = M8::from_bits(curved);
                 for a in 0..3 {
                     n[a] = F8::select(m, ni[a], n[a]);
@@ -416,42 +453,18 @@ impl<'a> PathPacket<'a> {
             }
             let beta = p.beta.each_ref().map(F8::load);
             let albedo = hit.albedo.each_ref().map(F8::load);
-            // ---- Next-event estimation: a light triangle, a point on it, its contribution
+            // ---- Next-event estimation: a light part, a point on it, its contribution
             // weighted against BSDF sampling, and a shadow ray for the lanes it lights.
-            let u_pick = p.uniforms(dim, 2);
-            let (u1, u2) = (p.uniforms(dim, 3), p.uniforms(dim, 4));
-            // The light triangles chosen, gathered into lanes.
-            let (mut v0, mut e1, mut e2) = ([[0.0; L]; 3], [[0.0; L]; 3], [[0.0; L]; 3]);
-            let (mut nl, mut ngl) = ([[0.0; L]; 3], [[0.0; L]; 3]);
-            let (mut area_pdf, mut le) = ([0.0; L], [[0.0; L]; C]);
-            let mut shadow = Packet::default();
-            // The light triangle of each lane: the first whose cumulative probability exceeds its
-            // number (counted in lanes).
-            let pick = F8::load(&u_pick);
-            let chosen = (self.light_cdf[..self.lights.len() - 1].iter())
-                .fold(b(0.0), |i, &c| {
-                    i + F8::select(b(c).le(pick), b(1.0), b(0.0))
-                })
-                .store();
-            for l in 0..L {
-                let tri = &self.lights[chosen[l] as usize];
-                let s = &self.surfaces[tri.prim as usize];
-                let e = &self.emitters[s.emitter as usize];
-                for a in 0..3 {
-                    (v0[a][l], e1[a][l], e2[a][l]) = (tri.v0[a], tri.e1[a], tri.e2[a]);
-                    (nl[a][l], ngl[a][l]) = (s.n[a], s.ng[a]);
-                }
-                for c in 0..C {
-                    le[c][l] = e.radiance[c];
-                }
-                area_pdf[l] = e.area_pdf;
-                shadow.skip[0][l] = hit.plane[l];
-                shadow.skip[1][l] = s.plane;
-            }
-            let (b1, b2) = square_to_triangle(F8::load(&u1), F8::load(&u2));
+            let light = self.light_lanes::<C>(&p, dim);
+            let (u1, u2) = (F8::load(&p.uniforms(dim, 3)), F8::load(&p.uniforms(dim, 4)));
+            let (b1, b2) = square_to_triangle(u1, u2);
+            let (b1, b2) = (
+                F8::select(light.quad, u1, b1),
+                F8::select(light.quad, u2, b2),
+            );
             let mut w = [b(0.0); 3];
             for a in 0..3 {
-                let y = F8::load(&v0[a]) + F8::load(&e1[a]) * b1 + F8::load(&e2[a]) * b2;
+                let y = light.v0[a] + light.e1[a] * b1 + light.e2[a] * b2;
                 w[a] = y - x[a];
             }
             let r2 = dot(&w, &w);
@@ -459,21 +472,25 @@ impl<'a> PathPacket<'a> {
             w = w.map(|w| w / r);
             // The light's cosines (one-sided: its front faces x; the density's is the geometric
             // normal's) and the BSDF's.
-            let cos_l = b(0.0) - dot(&nl.each_ref().map(F8::load), &w);
-            let cos_g = dot(&ngl.each_ref().map(F8::load), &w).abs();
+            let cos_l = b(0.0) - dot(&light.n, &w);
+            let cos_g = dot(&light.ng, &w).abs();
             let cos_o = dot(&n, &w);
-            let light_pdf = r2 * F8::load(&area_pdf) / cos_g;
+            let light_pdf = r2 * light.area_pdf / cos_g;
             let bsdf_pdf = cos_o * b(FRAC_1_PI);
             let weight = mis_lanes(light_pdf, bsdf_pdf) * bsdf_pdf / light_pdf;
             let lights = alive & cos_l.gt(b(0.0)) & cos_o.gt(b(0.0));
             let mut lit = [[0.0; L]; C];
             for c in 0..C {
-                let v = beta[c] * albedo[c] * F8::load(&le[c]) * weight;
+                let v = beta[c] * albedo[c] * light.radiance[c] * weight;
                 lit[c] = F8::select(lights, v, b(0.0)).store();
             }
-            shadow.o = x.map(F8::store);
-            shadow.d = w.map(F8::store);
-            shadow.tmax = r.store();
+            let shadow = Packet {
+                o: x.map(F8::store),
+                d: w.map(F8::store),
+                tmin: [0.0; L],
+                tmax: r.store(),
+                skip: [hit.plane, light.plane.store()],
+            };
             let open = match lights.bits() {
                 0 => 0,
                 cand => self.geometry.unoccluded(&shadow, cand),
@@ -514,6 +531,63 @@ impl<'a> PathPacket<'a> {
             for l in 0..L {
                 p.depth[l] += 1;
             }
+        }
+    }
+}
+
+impl PathPacket<'_> {
+    /// The light part each lane samples next (its bounce's first number is `dim`): the first
+    /// whose cumulative probability exceeds the lane's number, gathered into lanes; the only one
+    /// in every lane where the lights are one part (a rectangle), and no number drawn.
+    #[inline(always)]
+    fn light_lanes<const C: usize>(&self, p: &Paths<C>, dim: U) -> LightLanes<C> {
+        let b = F8::splat;
+        if let [part] = &self.lights[..] {
+            return LightLanes {
+                v0: part.v0.map(b),
+                e1: part.e1.map(b),
+                e2: part.e2.map(b),
+                quad: M8::from_bits(if part.quad { u32::MAX } else { 0 }),
+                n: part.n.map(b),
+                ng: part.ng.map(b),
+                plane: b(part.plane),
+                radiance: std::array::from_fn(|c| b(part.radiance[c])),
+                area_pdf: b(part.area_pdf),
+            };
+        }
+        let pick = F8::load(&p.uniforms(dim, 2));
+        let chosen = (self.light_cdf[..self.lights.len() - 1].iter())
+            .fold(b(0.0), |i, &c| {
+                i + F8::select(b(c).le(pick), b(1.0), b(0.0))
+            })
+            .store();
+        let (mut v0, mut e1, mut e2) = ([[0.0; L]; 3], [[0.0; L]; 3], [[0.0; L]; 3]);
+        let (mut n, mut ng) = ([[0.0; L]; 3], [[0.0; L]; 3]);
+        let (mut plane, mut area_pdf, mut radiance) = ([0.0; L], [0.0; L], [[0.0; L]; C]);
+        let mut quad = 0;
+        for l in 0..L {
+            let part = &self.lights[chosen[l] as usize];
+            for a in 0..3 {
+                (v0[a][l], e1[a][l], e2[a][l]) = (part.v0[a], part.e1[a], part.e2[a]);
+                (n[a][l], ng[a][l]) = (part.n[a], part.ng[a]);
+            }
+            for c in 0..C {
+                radiance[c][l] = part.radiance[c];
+            }
+            (plane[l], area_pdf[l]) = (part.plane, part.area_pdf);
+            quad |= (part.quad as u32) << l;
+        }
+        let lanes = |a: [F; 3]| a.each_ref().map(F8::load);
+        LightLanes {
+            v0: lanes(v0),
+            e1: lanes(e1),
+            e2: lanes(e2),
+            quad: M8::from_bits(quad),
+            n: lanes(n),
+            ng: lanes(ng),
+            plane: F8::load(&plane),
+            radiance: radiance.each_ref().map(F8::load),
+            area_pdf: F8::load(&area_pdf),
         }
     }
 }
@@ -604,16 +678,23 @@ impl<const C: usize> Paths<C> {
     }
 }
 
-/// Each lane's shading normal at its hit `x` on triangle `prim` (interpolated from its vertex
-/// normals and normalised, as [`crate::scene::Scene::surface_point`] does), and a tangent frame
-/// about it ([`Frame::new`] lane by lane).
+/// The shading normal of each lane of `lanes` (bit per lane) at its hit `x` on triangle `prim`
+/// (interpolated from its vertex normals and normalised, as
+/// [`crate::scene::Scene::surface_point`] does), and a tangent frame about it ([`Frame::new`] lane
+/// by lane); the other lanes' are not read.
 #[inline(always)]
-fn interpolated_normals(smooth: &[Smooth], prim: &U, x: &[F8; 3]) -> ([F8; 3], [[F8; 3]; 2]) {
+fn interpolated_normals(
+    smooth: &[Smooth],
+    prim: &U,
+    lanes: u32,
+    x: &[F8; 3],
+) -> ([F8; 3], [[F8; 3]; 2]) {
     let (mut bary, mut vn) = ([[[0.0; L]; 4]; 2], [[[0.0; L]; 3]; 3]);
-    for l in 0..L {
-        let Some(s) = smooth.get(prim[l] as usize) else {
-            continue; // a lane that hit nothing
-        };
+    let mut left = lanes;
+    while left != 0 {
+        let l = left.trailing_zeros() as usize;
+        left &= left - 1;
+        let s = &smooth[prim[l] as usize];
         for k in 0..2 {
             for a in 0..4 {
                 bary[k][a][l] = s.bary[k][a];
