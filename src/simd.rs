@@ -349,3 +349,31 @@ impl From<f32> for F8 {
         Self::splat(x)
     }
 }
+
+/// What arithmetic written once for an `f32` or for lanes of them ([`F8`]) needs: the four
+/// operations, constants, and the square root, each rounded as the `f32` operation is.
+pub trait Real:
+    Copy
+    + From<f32>
+    + std::ops::Add<Output = Self>
+    + std::ops::Sub<Output = Self>
+    + std::ops::Mul<Output = Self>
+    + std::ops::Div<Output = Self>
+{
+    /// The square root.
+    fn sqrt(self) -> Self;
+}
+
+impl Real for f32 {
+    #[inline(always)]
+    fn sqrt(self) -> Self {
+        f32::sqrt(self)
+    }
+}
+
+impl Real for F8 {
+    #[inline(always)]
+    fn sqrt(self) -> Self {
+        F8::sqrt(self)
+    }
+}

@@ -40,7 +40,7 @@ use crate::scene::{Los, Scene};
 use crate::sensor::Camera;
 use crate::settings::PathSettings;
 use crate::simd::{F8, M8};
-use glam::{Vec2, Vec3A};
+use glam::Vec3A;
 use std::f32::consts::FRAC_1_PI;
 use std::ops::Range;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -323,23 +323,25 @@ impl<'a> PathPacket<'a> {
                 return Err(NlosError::Interrupted);
             }
             // ---- A new sample in every lane whose path has ended: its camera ray.
+            let mut fresh = 0;
             for l in 0..L {
                 if p.alive >> l & 1 == 0 && next < samples.end {
-                    let key = pixel_key.sample(next);
+                    p.key[l] = pixel_key.sample(next);
                     next += 1;
-                    let jitter = Vec2::new(lane_uniform(key, 0), lane_uniform(key, 1));
-                    let ray = self
-                        .camera
-                        .pixel_ray(pixel, self.width, self.height, jitter);
-                    p.start(
-                        l,
-                        key,
-                        ray.o.to_array(),
-                        ray.d.to_array(),
-                        ray.tmin,
-                        ray.tmax,
-                    );
+                    fresh |= 1 << l;
                 }
+            }
+            if fresh != 0 {
+                let depth0 = [0; L];
+                let (jx, jy) = (p.uniforms(depth0, 0), p.uniforms(depth0, 1));
+                let (d, tmin, tmax) = self.camera.pixel_ray_parts(
+                    pixel,
+                    self.width,
+                    self.height,
+                    F8::load(&jx),
+                    F8::load(&jy),
+                );
+                p.start(fresh, self.camera.origin.to_array(), d, tmin, tmax);
             }
             if p.alive == 0 {
                 return Ok(());
@@ -648,23 +650,29 @@ impl<const C: usize> Default for Paths<C> {
 }
 
 impl<const C: usize> Paths<C> {
-    /// Lane `l` begins a sample (key `key`) with the camera ray `o + t d`, t in (tmin, tmax).
+    /// The lanes `fresh` (bit per lane, their keys set) begin a sample with the camera rays
+    /// `o + t d`, t in (tmin, tmax), of their lanes.
     #[inline(always)]
-    fn start(&mut self, l: usize, key: u32, o: [f32; 3], d: [f32; 3], tmin: f32, tmax: f32) {
-        self.alive |= 1 << l;
-        self.key[l] = key;
-        self.depth[l] = 0;
-        self.ray.skip[0][l] = NO_PLANE;
-        for a in 0..3 {
-            self.ray.o[a][l] = o[a];
-            self.ray.d[a][l] = d[a];
+    fn start(&mut self, fresh: u32, o: [f32; 3], d: [F8; 3], tmin: F8, tmax: F8) {
+        self.alive |= fresh;
+        let (d, tmin, tmax) = (d.map(F8::store), tmin.store(), tmax.store());
+        let mut left = fresh;
+        while left != 0 {
+            let l = left.trailing_zeros() as usize;
+            left &= left - 1;
+            self.depth[l] = 0;
+            self.ray.skip[0][l] = NO_PLANE;
+            for a in 0..3 {
+                self.ray.o[a][l] = o[a];
+                self.ray.d[a][l] = d[a][l];
+            }
+            (self.ray.tmin[l], self.ray.tmax[l]) = (tmin[l], tmax[l]);
+            for c in 0..C {
+                self.beta[c][l] = 1.0;
+            }
+            self.opl[l] = 0.0;
+            self.bsdf_pdf[l] = 0.0;
         }
-        (self.ray.tmin[l], self.ray.tmax[l]) = (tmin, tmax);
-        for c in 0..C {
-            self.beta[c][l] = 1.0;
-        }
-        self.opl[l] = 0.0;
-        self.bsdf_pdf[l] = 0.0;
     }
 
     /// Each lane's random number `slot` of the bounce whose first is `dim`.

@@ -9,6 +9,7 @@ use super::Meter;
 use crate::error::{NlosError, Result};
 use crate::geometry::Ray;
 use crate::props::Props;
+use crate::simd::Real;
 use glam::{Vec2, Vec3A};
 
 /// A pinhole camera.
@@ -111,28 +112,72 @@ impl Camera {
     /// `jitter` ∈ [0, 1)² within the pixel.
     #[inline]
     pub fn pixel_ray(&self, pixel: usize, width: usize, height: usize, jitter: Vec2) -> Ray {
-        self.ray(Vec2::new(
-            ((pixel % width) as f32 + jitter.x) / width as f32,
-            ((pixel / width) as f32 + jitter.y) / height as f32,
-        ))
+        let (u, v) = pixel_uv(pixel, width, height, jitter.x, jitter.y);
+        self.ray(Vec2::new(u, v))
+    }
+
+    /// [`Self::pixel_ray`]'s direction (by axis), tmin and tmax (the ray starts at
+    /// [`Self::origin`]), for an `f32` jitter or lanes of them (one ray per lane, the same bits).
+    #[inline(always)]
+    pub fn pixel_ray_parts<T: Real>(
+        &self,
+        pixel: usize,
+        width: usize,
+        height: usize,
+        jitter_x: T,
+        jitter_y: T,
+    ) -> ([T; 3], T, T) {
+        let (u, v) = pixel_uv(pixel, width, height, jitter_x, jitter_y);
+        self.ray_parts(u, v)
     }
 
     /// The ray through film position uv, clipped to (near, far).
     #[inline]
     pub fn ray(&self, uv: Vec2) -> Ray {
-        let local = Vec3A::new(
-            (1.0 - 2.0 * uv.x) * self.tan_half_fov_x,
-            (1.0 - 2.0 * uv.y) * self.tan_half_fov_x / self.aspect,
-            1.0,
-        );
-        let inv_len = local.length_recip();
-        let d = (self.axes[0] * local.x + self.axes[1] * local.y + self.axes[2]) * inv_len;
-        // Along a unit direction, the optical-axis depth is t·(z/|local|).
+        let (d, tmin, tmax) = self.ray_parts(uv.x, uv.y);
         Ray {
             o: self.origin,
-            d,
-            tmin: self.clip[0] / inv_len,
-            tmax: self.clip[1] / inv_len,
+            d: Vec3A::from_array(d),
+            tmin,
+            tmax,
         }
     }
+
+    /// [`Self::ray`]'s direction (by axis), tmin and tmax, for film positions in `f32` or lanes.
+    #[inline(always)]
+    fn ray_parts<T: Real>(&self, u: T, v: T) -> ([T; 3], T, T) {
+        let k = T::from;
+        let (lx, ly) = (
+            (k(1.0) - k(2.0) * u) * k(self.tan_half_fov_x),
+            (k(1.0) - k(2.0) * v) * k(self.tan_half_fov_x) / k(self.aspect),
+        );
+        let inv_len = k(1.0) / (lx * lx + ly * ly + k(1.0)).sqrt();
+        // No closures here: lanes' arithmetic must inline into its `#[target_feature]` caller,
+        // and a closure outside one is compiled without it.
+        let [a, b, c] = self.axes;
+        let d = [
+            (k(a.x) * lx + k(b.x) * ly + k(c.x)) * inv_len,
+            (k(a.y) * lx + k(b.y) * ly + k(c.y)) * inv_len,
+            (k(a.z) * lx + k(b.z) * ly + k(c.z)) * inv_len,
+        ];
+        // Along a unit direction, the optical-axis depth is t·(z/|local|).
+        (d, k(self.clip[0]) / inv_len, k(self.clip[1]) / inv_len)
+    }
+}
+
+/// The film position of the offset (`jitter_x`, `jitter_y`) ∈ [0, 1)² within pixel `pixel`
+/// (row-major on a `width`×`height` film).
+#[inline(always)]
+fn pixel_uv<T: Real>(
+    pixel: usize,
+    width: usize,
+    height: usize,
+    jitter_x: T,
+    jitter_y: T,
+) -> (T, T) {
+    let k = T::from;
+    (
+        (k((pixel % width) as f32) + jitter_x) / k(width as f32),
+        (k((pixel / width) as f32) + jitter_y) / k(height as f32),
+    )
 }
