@@ -1,5 +1,6 @@
 //! Small geometric utilities: Mitsuba-convention transforms, shading frames, spectra.
 
+use crate::simd::Real;
 use glam::{Affine3A, DMat4, DVec3, Vec3A};
 
 /// Speed of light in m/s (`mitransient.utils.speed_of_light`).
@@ -108,15 +109,29 @@ pub struct Frame {
     pub n: Vec3A,
 }
 
+/// The tangent and bitangent of the frame whose z axis is the unit vector `n` (Duff et al. 2017,
+/// "Building an orthonormal basis, revisited"), for an `f32` or for lanes of them (the same bits).
+#[inline(always)]
+pub fn frame_axes<T: Real>(n: [T; 3]) -> [[T; 3]; 2] {
+    let k = T::from;
+    let sign = n[2].signum();
+    let a = k(-1.0) / (sign + n[2]);
+    let b = n[0] * n[1] * a;
+    [
+        [k(1.0) + sign * n[0] * n[0] * a, sign * b, -sign * n[0]],
+        [b, sign + n[1] * n[1] * a, -n[1]],
+    ]
+}
+
 impl Frame {
     /// Frame whose z axis is `n`.
     pub fn new(n: Vec3A) -> Self {
-        let sign = 1.0f32.copysign(n.z);
-        let a = -1.0 / (sign + n.z);
-        let b = n.x * n.y * a;
-        let s = Vec3A::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x);
-        let t = Vec3A::new(b, sign + n.y * n.y * a, -n.y);
-        Self { s, t, n }
+        let [s, t] = frame_axes(n.to_array());
+        Self {
+            s: Vec3A::from_array(s),
+            t: Vec3A::from_array(t),
+            n,
+        }
     }
     /// Local → world.
     pub fn to_world(&self, v: Vec3A) -> Vec3A {

@@ -62,6 +62,13 @@ mod imp {
         pub fn store_into(self, a: &mut [f32; LANES]) {
             unsafe { _mm256_storeu_ps(a.as_mut_ptr(), self.0) };
         }
+        /// The lanes truncated to integers (as `x as i32` for lanes within its range).
+        #[inline(always)]
+        pub fn to_int(self) -> [i32; LANES] {
+            let mut a = [0; LANES];
+            unsafe { _mm256_storeu_si256(a.as_mut_ptr().cast(), _mm256_cvttps_epi32(self.0)) };
+            a
+        }
         /// The lanes whose bits are `a`'s.
         #[inline(always)]
         pub fn load_bits(a: &[u32; LANES]) -> Self {
@@ -207,6 +214,27 @@ mod imp {
             Self(unsafe { _mm256_xor_ps(self.0, _mm256_castsi256_ps(_mm256_set1_epi32(-1))) })
         }
     }
+
+    impl std::ops::Neg for F8 {
+        type Output = Self;
+        #[inline(always)]
+        fn neg(self) -> Self {
+            Self(unsafe { _mm256_xor_ps(self.0, _mm256_set1_ps(-0.0)) })
+        }
+    }
+
+    impl F8 {
+        /// 1 with each lane's sign (−1 for −0, as `f32::signum`; no lane is NaN).
+        #[inline(always)]
+        pub fn signum(self) -> Self {
+            unsafe {
+                Self(_mm256_or_ps(
+                    _mm256_and_ps(self.0, _mm256_set1_ps(-0.0)),
+                    _mm256_set1_ps(1.0),
+                ))
+            }
+        }
+    }
 }
 
 #[cfg(not(target_arch = "x86_64"))]
@@ -241,6 +269,10 @@ mod imp {
         /// The lanes into an array.
         pub fn store(self) -> [f32; LANES] {
             self.0
+        }
+        /// The lanes truncated to integers (as `x as i32` for lanes within its range).
+        pub fn to_int(self) -> [i32; LANES] {
+            self.0.map(|x| x as i32)
         }
         /// self · b + c, rounded once.
         pub fn mul_add(self, b: Self, c: Self) -> Self {
@@ -338,6 +370,20 @@ mod imp {
             Self(!self.0 & 0xff)
         }
     }
+
+    impl std::ops::Neg for F8 {
+        type Output = Self;
+        fn neg(self) -> Self {
+            Self(self.0.map(|x| -x))
+        }
+    }
+
+    impl F8 {
+        /// 1 with each lane's sign (−1 for −0, as `f32::signum`; no lane is NaN).
+        pub fn signum(self) -> Self {
+            Self(self.0.map(f32::signum))
+        }
+    }
 }
 
 pub use imp::{F8, M8};
@@ -359,9 +405,12 @@ pub trait Real:
     + std::ops::Sub<Output = Self>
     + std::ops::Mul<Output = Self>
     + std::ops::Div<Output = Self>
+    + std::ops::Neg<Output = Self>
 {
     /// The square root.
     fn sqrt(self) -> Self;
+    /// 1 with the sign of `self` (−1 for −0; not NaN).
+    fn signum(self) -> Self;
 }
 
 impl Real for f32 {
@@ -369,11 +418,19 @@ impl Real for f32 {
     fn sqrt(self) -> Self {
         f32::sqrt(self)
     }
+    #[inline(always)]
+    fn signum(self) -> Self {
+        f32::signum(self)
+    }
 }
 
 impl Real for F8 {
     #[inline(always)]
     fn sqrt(self) -> Self {
         F8::sqrt(self)
+    }
+    #[inline(always)]
+    fn signum(self) -> Self {
+        F8::signum(self)
     }
 }

@@ -323,14 +323,8 @@ unsafe fn closest(tris: &Tris, p: &Packet) -> ([f32; LANES], [u32; LANES]) {
     closest_in::<false, 0>(tris.group(3), &r, &mut best, &mut prim);
     closest_in::<false, 1>(tris.group(4), &r, &mut best, &mut prim);
     closest_in::<false, 2>(tris.group(5), &r, &mut best, &mut prim);
-    let k = prim.store();
-    let mut index = [u32::MAX; LANES];
-    for l in 0..LANES {
-        if k[l] >= 0.0 {
-            index[l] = k[l] as u32;
-        }
-    }
-    (best.store(), index)
+    // −1 (no hit) becomes u32::MAX.
+    (best.store(), prim.to_int().map(|k| k as u32))
 }
 
 /// Clears from `open` the lanes the group of parallelograms (`QUAD`) or triangles of largest axis

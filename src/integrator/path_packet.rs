@@ -31,7 +31,7 @@ use crate::emitter::Light;
 use crate::error::{NlosError, Result};
 use crate::geometry::Prim;
 use crate::geometry::ray_packet::{LANES as L, NO_PLANE, Packet, PacketScene, barycentric_maps};
-use crate::math::{Frame, Spectrum};
+use crate::math::{Spectrum, frame_axes};
 use crate::sampling::{
     lane_key, lane_uniform, square_to_uniform_disk_concentric_lanes as square_to_disk,
     square_to_uniform_triangle_lanes as square_to_triangle,
@@ -55,11 +55,8 @@ type U = [u32; L];
 /// What a lane needs of the triangle it hit.
 #[derive(Clone, Copy, Debug)]
 struct Surface {
-    /// Unit shading normal (`flip_normals` applied), and a tangent frame about it for BSDF
-    /// sampling.
+    /// Unit shading normal (`flip_normals` applied).
     n: [f32; 3],
-    s: [f32; 3],
-    t: [f32; 3],
     /// Unit geometric normal (for an area light's density in solid angle).
     ng: [f32; 3],
     /// Diffuse reflectance.
@@ -227,11 +224,8 @@ impl<'a> PathPacket<'a> {
             let sign = scene.normal_sign(shape);
             smooth.push(Smooth::new(v, scene.prim_normals[i], ng, sign));
             let (n, ng) = (ns * sign, ng * sign);
-            let frame = Frame::new(n);
             surfaces.push(Surface {
                 n: n.to_array(),
-                s: frame.s.to_array(),
-                t: frame.t.to_array(),
                 ng: ng.to_array(),
                 albedo: d.reflectance.to_array(),
                 plane: geometry.plane(i as u32),
@@ -363,7 +357,7 @@ impl<'a> PathPacket<'a> {
                 }
                 let s = &self.surfaces[prim[l] as usize];
                 for a in 0..3 {
-                    (hit.n[a][l], hit.s[a][l], hit.t[a][l]) = (s.n[a], s.s[a], s.t[a]);
+                    hit.n[a][l] = s.n[a];
                 }
                 for c in 0..C {
                     hit.albedo[c][l] = s.albedo[c];
@@ -380,21 +374,16 @@ impl<'a> PathPacket<'a> {
                 d[2].mul_add(tv, o[2]),
             ];
             let mut n = hit.n.each_ref().map(F8::load);
-            let mut frame = [
-                hit.s.each_ref().map(F8::load),
-                hit.t.each_ref().map(F8::load),
-            ];
             // Lanes on triangles whose vertex normals differ take the interpolated normal.
             if curved != 0 {
-                let (ni, fi) = interpolated_normals(&self.smooth, &prim, curved, &x);
+                let ni = interpolated_normals(&self.smooth, &prim, curved, &x);
                 let m = M8::from_bits(curved);
                 for a in 0..3 {
                     n[a] = F8::select(m, ni[a], n[a]);
-                    for k in 0..2 {
-                        frame[k][a] = F8::select(m, fi[k][a], frame[k][a]);
-                    }
                 }
             }
+            // The tangent frame about each lane's normal, as `Frame::new` makes it.
+            let frame = frame_axes(n);
             let cos_i = (b(0.0) - dot(&n, &d)).store();
             for l in 0..L {
                 p.opl[l] += match p.depth[l] {
@@ -594,11 +583,9 @@ impl PathPacket<'_> {
     }
 }
 
-/// What the lanes hit, by lane: normal and tangent frame, albedo, plane key and emitter.
+/// What the lanes hit, by lane: normal, albedo, plane key and emitter.
 struct Lanes<const C: usize> {
     n: [F; 3],
-    s: [F; 3],
-    t: [F; 3],
     albedo: [F; C],
     plane: F,
     emitter: U,
@@ -608,8 +595,6 @@ impl<const C: usize> Default for Lanes<C> {
     fn default() -> Self {
         Self {
             n: [[0.0; L]; 3],
-            s: [[0.0; L]; 3],
-            t: [[0.0; L]; 3],
             albedo: [[0.0; L]; C],
             plane: [NO_PLANE; L],
             emitter: [u32::MAX; L],
@@ -688,15 +673,9 @@ impl<const C: usize> Paths<C> {
 
 /// The shading normal of each lane of `lanes` (bit per lane) at its hit `x` on triangle `prim`
 /// (interpolated from its vertex normals and normalised, as
-/// [`crate::scene::Scene::surface_point`] does), and a tangent frame about it ([`Frame::new`] lane
-/// by lane); the other lanes' are not read.
+/// [`crate::scene::Scene::surface_point`] does); the other lanes' are not read.
 #[inline(always)]
-fn interpolated_normals(
-    smooth: &[Smooth],
-    prim: &U,
-    lanes: u32,
-    x: &[F8; 3],
-) -> ([F8; 3], [[F8; 3]; 2]) {
+fn interpolated_normals(smooth: &[Smooth], prim: &U, lanes: u32, x: &[F8; 3]) -> [F8; 3] {
     let (mut bary, mut vn) = ([[[0.0; L]; 4]; 2], [[[0.0; L]; 3]; 3]);
     let mut left = lanes;
     while left != 0 {
@@ -724,17 +703,7 @@ fn interpolated_normals(
     for c in &mut n {
         *c = *c / len;
     }
-    let one = F8::splat(1.0);
-    let sign = F8::select(n[2].lt(F8::splat(0.0)), F8::splat(-1.0), one);
-    let a = F8::splat(-1.0) / (sign + n[2]);
-    let bb = n[0] * n[1] * a;
-    let s = [
-        one + sign * n[0] * n[0] * a,
-        sign * bb,
-        F8::splat(0.0) - sign * n[0],
-    ];
-    let t = [bb, sign + n[1] * n[1] * a, F8::splat(0.0) - n[1]];
-    (n, [s, t])
+    n
 }
 
 /// a·x + w lane by lane, for the map `m` = (a, w) given by lanes (its w as `w`).
