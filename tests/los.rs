@@ -488,11 +488,16 @@ fn run(scene: &Scene, mono: bool, spp: u64, seed: u64, scalar: bool, threads: us
 #[test]
 fn lockstep_agrees_with_the_scalar_tracer() {
     let obj = octahedron_obj("renders");
-    // A triangle facing the room before the back wall (a light part that is no parallelogram).
+    // Before the back wall: a triangle facing the room (a light part that is no parallelogram),
+    // and a square whose second triangle's vertex normals face the wall (one-sided, it emits
+    // there alone): two parts, not one parallelogram.
     let tri = std::env::temp_dir().join(format!("nlos_rs_los_triangle_{}.obj", std::process::id()));
     std::fs::write(
         &tri,
-        "v 100 100 540\nv 100 200 540\nv 200 100 540\nf 1 2 3\n",
+        "v 100 100 540\nv 100 200 540\nv 200 100 540\n\
+         v 300 100 540\nv 300 200 540\nv 400 200 540\nv 400 100 540\n\
+         vn 0 0 -1\nvn 0 0 1\n\
+         f 1//1 2//1 3//1\nf 4//1 5//1 6//1\nf 4//2 6//2 7//2\n",
     )
     .expect("scratch file");
     let integrator = |extra: &'static str| {
@@ -522,7 +527,7 @@ fn lockstep_agrees_with_the_scalar_tracer() {
             false,
         ),
         (
-            "lit by the luminaire, the small box's six faces and a triangle, mono",
+            "lit by the luminaire, the small box's six faces, a triangle and a square of two facings, mono",
             cbox(6, |t| {
                 let glow = |rgb: &str| {
                     format!(
@@ -532,7 +537,7 @@ fn lockstep_agrees_with_the_scalar_tracer() {
                 let triangle = format!(
                     "<shape type=\"obj\"><string name=\"filename\" value=\"{}\"/><ref id=\"white\"/>{}</shape>\n</scene>",
                     tri.display(),
-                    glow("4, 4, 4")
+                    glow("40, 40, 40")
                 );
                 t.replace(
                     "value=\"meshes/cbox_smallbox.obj\"/>",

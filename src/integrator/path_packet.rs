@@ -190,11 +190,23 @@ impl<'a> PathPacket<'a> {
             });
         }
         let (mut surfaces, mut lights, mut weights) = (Vec::new(), Vec::new(), Vec::new());
-        // Light triangles that are a parallelogram's second are sampled with its first.
+        // Light triangles that are a parallelogram's second are sampled with its first, where
+        // the two have one geometric and one shading normal (a light sample's cosines are taken
+        // with its part's).
+        let normals = |i: usize| {
+            let Prim::Triangle { n, .. } = scene.prims[i] else {
+                return None;
+            };
+            let shading = scene.prim_normals[i].map_or(n, |vn| vn[0].normalize_or(n));
+            Some((n, shading))
+        };
         let mut parallelogram = vec![None; scene.prims.len()];
         for &(first, second, corner) in geometry.parallelograms() {
-            parallelogram[first as usize] = Some(corner);
-            parallelogram[second as usize] = Some([Vec3A::NAN; 3]);
+            let (a, b) = (normals(first as usize)?, normals(second as usize)?);
+            if (a.0 - b.0).abs().max_element() <= 1e-6 && (a.1 - b.1).abs().max_element() <= 1e-6 {
+                parallelogram[first as usize] = Some(corner);
+                parallelogram[second as usize] = Some([Vec3A::NAN; 3]);
+            }
         }
         let mut smooth = Vec::with_capacity(scene.prims.len());
         for (i, prim) in scene.prims.iter().enumerate() {
