@@ -6,8 +6,9 @@
 //! The rays of the lanes are traced together, eight to a vector ([`crate::geometry::ray_packet`]),
 //! and the steps between them are branch-free arithmetic on eight lanes ([`crate::simd::F8`], AVX2
 //! picked at run time): light sampling, cosine-weighted BSDF sampling, multiple importance sampling
-//! and Russian roulette. Only the film's splats and the gathers of what a lane hit and of the
-//! light triangle it chose are made lane by lane.
+//! and Russian roulette, and the camera rays of the lanes that begin a sample. Only the film's
+//! splats and the gathers of what a lane hit (its normal, albedo, plane and emitter) and of the
+//! light part it chose (where the lights are more than one) are made lane by lane.
 //!
 //! The estimator is [`super::path`]'s (and mitransient's `transient_path`): next-event estimation
 //! and BSDF sampling under the power heuristic, emission splatted at the optical path length, the
