@@ -19,11 +19,22 @@ pub struct Phasor {
     /// The FFT's spacing 1/(n·w), by which consecutive FFT indices' frequencies differ.
     spacing: f64,
     /// The runs of `frequencies` at consecutive FFT indices.
-    runs: Vec<Range<usize>>,
+    runs: Vec<Run>,
     /// Per frequency, −2π times how far it lies from its run's first frequency plus whole
     /// spacings (its and the first's rounding to f32; 0 for the first): the angle its phasor
     /// turns off the grid's, per unit optical path.
     rate: Vec<f64>,
+}
+
+/// A run of frequencies at consecutive FFT indices.
+#[derive(Clone, Debug, PartialEq)]
+struct Run {
+    /// Their indices in [`Phasor::frequencies`].
+    freqs: Range<usize>,
+    /// The first's FFT index k, whose grid frequency is k spacings.
+    index: i64,
+    /// −2π times how far the first lies off its grid frequency (its rounding to f32).
+    rate: f64,
 }
 
 /// Frequencies whose phasors a run advances together, each turned by four spacings a step.
@@ -57,15 +68,19 @@ impl Phasor {
             .map(|k| (signed(k) / (n * bin_width)) as f32 as f64)
             .collect();
         let spacing = 1.0 / (n * bin_width);
-        let mut runs: Vec<Range<usize>> = Vec::new();
+        let mut runs: Vec<Run> = Vec::new();
         for (j, k) in (lo..=hi).enumerate() {
             match runs.last_mut() {
-                Some(run) if signed(k) == signed(k - 1) + 1.0 => run.end = j + 1,
-                _ => runs.push(j..j + 1),
+                Some(run) if signed(k) == signed(k - 1) + 1.0 => run.freqs.end = j + 1,
+                _ => runs.push(Run {
+                    freqs: j..j + 1,
+                    index: signed(k) as i64,
+                    rate: -std::f64::consts::TAU * (frequencies[j] - signed(k) * spacing),
+                }),
             }
         }
         let mut rate = vec![0.0; frequencies.len()];
-        for run in &runs {
+        for Run { freqs: run, .. } in &runs {
             for j in run.clone() {
                 let drift =
                     frequencies[j] - frequencies[run.start] - (j - run.start) as f64 * spacing;
@@ -94,10 +109,12 @@ impl Phasor {
     /// laid out as [re, im] per frequency.
     ///
     /// The phasors e^{−2πi f d} of a run of consecutive FFT frequencies are one rotation apart,
-    /// e^{−2πi Δ d} for the spacing Δ: a run's first [`LANES`] phasors are its first one turned
-    /// by that rotation, and each later one is the phasor [`LANES`] before it turned by that
-    /// rotation's [`LANES`]-th power (two sines and cosines a contribution instead of one per
-    /// frequency, which took most of a phasor render's time). Each grid phasor is then turned by
+    /// e^{−2πi Δ d} for the spacing Δ, and the run's first, of FFT index k, is that rotation's
+    /// k-th power (by squaring) turned by its own drift off the grid: a run's first [`LANES`]
+    /// phasors are its first one turned by that rotation, and each later one is the phasor
+    /// [`LANES`] before it turned by that rotation's [`LANES`]-th power (one sine and cosine a
+    /// contribution instead of one per frequency, which took most of a phasor render's time; a
+    /// second one for the run's first took a sixth). Each grid phasor is then turned by
     /// its frequency's small drift off the grid (its rounding to f32), from the sine's and
     /// cosine's Taylor polynomials. Both are exact to about 1e-14, against the 6e-8 of the f32
     /// sums; a drift whose turn is not small is computed directly. The [`LANES`] frequencies of a
@@ -126,10 +143,22 @@ impl Phasor {
         let turn = |f: f64| (-TAU * f * d).rem_euclid(TAU).sin_cos();
         let step = turn(self.spacing);
         let stride = turn_by(turn_by(step, step), turn_by(step, step));
-        for run in &self.runs {
-            // The grid phasors of frequencies j..j + LANES, as sines and cosines.
+        for Run {
+            freqs: run,
+            index,
+            rate,
+        } in &self.runs
+        {
+            // The grid phasors of frequencies j..j + LANES, as sines and cosines; the run's first
+            // is the rotation's index-th power turned by its drift, where that turn is small.
             let (mut s, mut c) = ([0.0; LANES], [1.0; LANES]);
-            (s[0], c[0]) = turn(self.frequencies[run.start]);
+            let a = rate * d;
+            (s[0], c[0]) = if a.abs() < 1e-3 {
+                let (ps, pc) = drift_turn([0.0], [1.0], [a]);
+                turn_by(power(step, *index), (ps[0], pc[0]))
+            } else {
+                turn(self.frequencies[run.start])
+            };
             for k in 1..LANES {
                 (s[k], c[k]) = turn_by((s[k - 1], c[k - 1]), step);
             }
@@ -180,6 +209,21 @@ fn drift_turn<const N: usize>(s: [f64; N], c: [f64; N], a: [f64; N]) -> ([f64; N
         std::array::from_fn(|k| s[k] * ca[k] + c[k] * sa[k]),
         std::array::from_fn(|k| c[k] * ca[k] - s[k] * sa[k]),
     )
+}
+
+/// The phasor `z` (sin, cos) to the power `k` (its conjugate's for k < 0), by squaring.
+#[inline(always)]
+fn power(z: (f64, f64), k: i64) -> (f64, f64) {
+    let (mut base, mut e) = (z, k.unsigned_abs());
+    let mut out = (0.0, 1.0);
+    while e != 0 {
+        if e & 1 != 0 {
+            out = turn_by(out, base);
+        }
+        base = turn_by(base, base);
+        e >>= 1;
+    }
+    if k < 0 { (-out.0, out.1) } else { out }
 }
 
 /// The phasors (`s`, `c`) each turned by `by`.
