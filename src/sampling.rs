@@ -2,7 +2,7 @@
 //! (tests/sampling.rs). Streams are keyed by (seed, pixel, block) so a render is bit-identical
 //! whatever the number of threads.
 
-use crate::simd::F8;
+use crate::simd::{F8, Real};
 use glam::{Vec2, Vec3A};
 use rand_core::Rng;
 use rand_pcg::Pcg32;
@@ -280,10 +280,7 @@ pub fn square_to_uniform_disk_concentric(u: Vec2) -> Vec2 {
 /// render's time in cosine-weighted sampling. For an `f32`, or for lanes of them
 /// ([`crate::simd::F8`]).
 #[inline(always)]
-pub fn sin_cos_quarter<T>(t: T) -> (T, T)
-where
-    T: Copy + std::ops::Add<Output = T> + std::ops::Mul<Output = T> + From<f32>,
-{
+pub fn sin_cos_quarter<T: Real>(t: T) -> (T, T) {
     let k = T::from;
     let t2 = t * t;
     let s = t

@@ -105,13 +105,9 @@ struct LightPart {
     e2: [f32; 3],
     /// A parallelogram, v0 + a e1 + b e2 for a, b in [0, 1] (else the triangle of a + b ≤ 1).
     quad: bool,
-    /// Unit shading and geometric normals ([`Surface::n`], [`Surface::ng`]), plane key.
-    n: [f32; 3],
-    ng: [f32; 3],
-    plane: f32,
-    /// The emitter's radiance and its area density under next-event estimation.
-    radiance: [f32; 3],
-    area_pdf: f32,
+    /// Its (first) triangle's surface, and its emitter.
+    surface: Surface,
+    emitter: Emitter,
 }
 
 /// The light parts the lanes chose, in lanes.
@@ -190,25 +186,7 @@ impl<'a> PathPacket<'a> {
                 area_pdf: 1.0 / (area * los.lights.len() as f32),
             });
         }
-        let (mut surfaces, mut lights, mut weights) = (Vec::new(), Vec::new(), Vec::new());
-        // Light triangles that are a parallelogram's second are sampled with its first, where
-        // the two have one geometric and one shading normal (a light sample's cosines are taken
-        // with its part's).
-        let normals = |i: usize| {
-            let Prim::Triangle { n, .. } = scene.prims[i] else {
-                return None;
-            };
-            let shading = scene.prim_normals[i].map_or(n, |vn| vn[0].normalize_or(n));
-            Some((n, shading))
-        };
-        let mut parallelogram = vec![None; scene.prims.len()];
-        for &(first, second, corner) in geometry.parallelograms() {
-            let (a, b) = (normals(first as usize)?, normals(second as usize)?);
-            if (a.0 - b.0).abs().max_element() <= 1e-6 && (a.1 - b.1).abs().max_element() <= 1e-6 {
-                parallelogram[first as usize] = Some(corner);
-                parallelogram[second as usize] = Some([Vec3A::NAN; 3]);
-            }
-        }
+        let mut surfaces = Vec::with_capacity(scene.prims.len());
         let mut smooth = Vec::with_capacity(scene.prims.len());
         for (i, prim) in scene.prims.iter().enumerate() {
             let Prim::Triangle { v, n } = *prim else {
@@ -245,24 +223,40 @@ impl<'a> PathPacket<'a> {
                 emitter,
                 curved,
             });
-            let corner = parallelogram[i].unwrap_or(v);
-            if emitter != u32::MAX && !corner[0].is_nan() {
-                let e = &emitters[emitter as usize];
-                let quad = parallelogram[i].is_some();
-                lights.push(LightPart {
-                    v0: corner[0].to_array(),
-                    e1: (corner[1] - corner[0]).to_array(),
-                    e2: (corner[2] - corner[0]).to_array(),
-                    quad,
-                    n: n.to_array(),
-                    ng: ng.to_array(),
-                    plane: geometry.plane(i as u32),
-                    radiance: e.radiance,
-                    area_pdf: e.area_pdf,
-                });
-                let area = prim.area() as f64 * if quad { 2.0 } else { 1.0 };
-                weights.push(area * e.area_pdf as f64);
+        }
+        // The light parts: each light triangle, but the two of a parallelogram as one where they
+        // share both normals (a light sample's cosines are taken with its part's).
+        let mut corners = vec![None; scene.prims.len()];
+        let mut second = vec![false; scene.prims.len()];
+        for &(i, j, c) in geometry.parallelograms() {
+            let (a, b) = (&surfaces[i as usize], &surfaces[j as usize]);
+            let same = |x: [f32; 3], y: [f32; 3]| (0..3).all(|k| (x[k] - y[k]).abs() <= 1e-6);
+            if same(a.n, b.n) && same(a.ng, b.ng) {
+                corners[i as usize] = Some(c);
+                second[j as usize] = true;
             }
+        }
+        let (mut lights, mut weights) = (Vec::new(), Vec::new());
+        for (i, surface) in surfaces.iter().enumerate() {
+            if surface.emitter == u32::MAX || second[i] {
+                continue;
+            }
+            let prim = &scene.prims[i];
+            let Prim::Triangle { v, .. } = *prim else {
+                unreachable!("every primitive is a triangle here");
+            };
+            let (corner, quad) = (corners[i].unwrap_or(v), corners[i].is_some());
+            let emitter = emitters[surface.emitter as usize];
+            lights.push(LightPart {
+                v0: corner[0].to_array(),
+                e1: (corner[1] - corner[0]).to_array(),
+                e2: (corner[2] - corner[0]).to_array(),
+                quad,
+                surface: *surface,
+                emitter,
+            });
+            let area = prim.area() as f64 * if quad { 2.0 } else { 1.0 };
+            weights.push(area * emitter.area_pdf as f64);
         }
         let total: f64 = weights.iter().sum();
         let mut acc = 0.0;
@@ -552,11 +546,11 @@ impl PathPacket<'_> {
                 e1: part.e1.map(b),
                 e2: part.e2.map(b),
                 quad: M8::from_bits(if part.quad { u32::MAX } else { 0 }),
-                n: part.n.map(b),
-                ng: part.ng.map(b),
-                plane: b(part.plane),
-                radiance: std::array::from_fn(|c| b(part.radiance[c])),
-                area_pdf: b(part.area_pdf),
+                n: part.surface.n.map(b),
+                ng: part.surface.ng.map(b),
+                plane: b(part.surface.plane),
+                radiance: std::array::from_fn(|c| b(part.emitter.radiance[c])),
+                area_pdf: b(part.emitter.area_pdf),
             };
         }
         let pick = F8::load(&p.uniforms(dim, 2));
@@ -573,12 +567,12 @@ impl PathPacket<'_> {
             let part = &self.lights[chosen[l] as usize];
             for a in 0..3 {
                 (v0[a][l], e1[a][l], e2[a][l]) = (part.v0[a], part.e1[a], part.e2[a]);
-                (n[a][l], ng[a][l]) = (part.n[a], part.ng[a]);
+                (n[a][l], ng[a][l]) = (part.surface.n[a], part.surface.ng[a]);
             }
             for c in 0..C {
-                radiance[c][l] = part.radiance[c];
+                radiance[c][l] = part.emitter.radiance[c];
             }
-            (plane[l], area_pdf[l]) = (part.plane, part.area_pdf);
+            (plane[l], area_pdf[l]) = (part.surface.plane, part.emitter.area_pdf);
             quad |= (part.quad as u32) << l;
         }
         let lanes = |a: [F; 3]| a.each_ref().map(F8::load);
