@@ -123,6 +123,16 @@ mod imp {
         pub fn abs(self) -> Self {
             Self(unsafe { _mm256_andnot_ps(_mm256_set1_ps(-0.0), self.0) })
         }
+        /// 1 with each lane's sign (−1 for −0, as `f32::signum`; no lane is NaN).
+        #[inline(always)]
+        pub fn signum(self) -> Self {
+            unsafe {
+                Self(_mm256_or_ps(
+                    _mm256_and_ps(self.0, _mm256_set1_ps(-0.0)),
+                    _mm256_set1_ps(1.0),
+                ))
+            }
+        }
         /// Lanes where self < b.
         #[inline(always)]
         pub fn lt(self, b: Self) -> M8 {
@@ -222,19 +232,6 @@ mod imp {
             Self(unsafe { _mm256_xor_ps(self.0, _mm256_set1_ps(-0.0)) })
         }
     }
-
-    impl F8 {
-        /// 1 with each lane's sign (−1 for −0, as `f32::signum`; no lane is NaN).
-        #[inline(always)]
-        pub fn signum(self) -> Self {
-            unsafe {
-                Self(_mm256_or_ps(
-                    _mm256_and_ps(self.0, _mm256_set1_ps(-0.0)),
-                    _mm256_set1_ps(1.0),
-                ))
-            }
-        }
-    }
 }
 
 #[cfg(not(target_arch = "x86_64"))]
@@ -293,6 +290,10 @@ mod imp {
         /// The lane-wise absolute value.
         pub fn abs(self) -> Self {
             Self(self.0.map(f32::abs))
+        }
+        /// 1 with each lane's sign (−1 for −0, as `f32::signum`; no lane is NaN).
+        pub fn signum(self) -> Self {
+            Self(self.0.map(f32::signum))
         }
         /// Lanes where self < b.
         pub fn lt(self, b: Self) -> M8 {
@@ -375,13 +376,6 @@ mod imp {
         type Output = Self;
         fn neg(self) -> Self {
             Self(self.0.map(|x| -x))
-        }
-    }
-
-    impl F8 {
-        /// 1 with each lane's sign (−1 for −0, as `f32::signum`; no lane is NaN).
-        pub fn signum(self) -> Self {
-            Self(self.0.map(f32::signum))
         }
     }
 }

@@ -389,8 +389,6 @@ impl<'a> PathPacket<'a> {
                     n[a] = F8::select(m, ni[a], n[a]);
                 }
             }
-            // The tangent frame about each lane's normal, as `Frame::new` makes it.
-            let frame = frame_axes(n);
             let cos_i = (b(0.0) - dot(&n, &d)).store();
             for l in 0..L {
                 p.opl[l] += match p.depth[l] {
@@ -508,6 +506,8 @@ impl<'a> PathPacket<'a> {
             let u_rr = F8::load(&p.uniforms(dim, 7));
             let (dx, dy) = square_to_disk(F8::load(&v1), F8::load(&v2));
             let dz = (b(1.0) - dx * dx - dy * dy).max(b(0.0)).sqrt();
+            // About the tangent frame of each lane's normal, as `Frame::new` makes it.
+            let frame = frame_axes(n);
             for a in 0..3 {
                 let dir = frame[0][a] * dx + frame[1][a] * dy + n[a] * dz;
                 p.ray.d[a] = dir.store();
