@@ -336,7 +336,7 @@ impl Plan {
         Ok(())
     }
 
-    /// Whether a line-of-sight render may trace in lockstep lanes
+    /// Whether a render may trace in lockstep lanes
     /// ([`crate::integrator::path_packet`]): it keeps no per-sample values (variance, adaptive
     /// sampling) and draws independent numbers.
     pub fn lockstep(&self) -> bool {
@@ -704,7 +704,14 @@ macro_rules! with_tracer {
         match &$scene.setup {
             Setup::Nlos(_) => {
                 let shared = $plan.shared.then_some($plan.spp);
-                let $t = &NlosTracer::new($scene, $opts.mono, &$monitor.cancel, shared, $pixels)?;
+                let $t = &NlosTracer::new(
+                    $scene,
+                    $opts.mono,
+                    &$monitor.cancel,
+                    shared,
+                    $pixels,
+                    $plan.lockstep(),
+                )?;
                 $body
             }
             Setup::Los(los) => {

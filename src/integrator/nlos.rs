@@ -9,6 +9,7 @@
 //! the estimate, and the capture's time origin ignores the shutter. See docs/compatibility.md.
 
 use super::clear_view::ClearView;
+use super::path_packet::PathPacket;
 use super::scan_cone::{ScanCone, pixel_footprints, scan_cones};
 use super::visibility_guide::Guide;
 use super::{Splat, Step, Tracer, Vertex, hgrs, russian_roulette};
@@ -228,6 +229,8 @@ pub struct NlosTracer<'a> {
     pub(super) hidden: Option<&'a AreaSampler>,
     /// The distribution of a shared light subpath's first hidden vertex, if guided.
     pub(super) guide: Option<Guide>,
+    /// The render in lockstep lanes, where the scene allows ([`PathPacket::nlos`]).
+    packet: Option<PathPacket<'a>>,
 }
 
 impl<'a> NlosTracer<'a> {
@@ -235,13 +238,15 @@ impl<'a> NlosTracer<'a> {
     /// per-sample loops (an exhaustive capture's laser points) early. `shared_spp`: the render
     /// shares this many light subpaths among its scan points (it then learns their guide).
     /// `pixels`: the pixels the render traces (a part's): what each pixel alone needs (its cone,
-    /// a camera pixel's footprint) is made for these only.
+    /// a camera pixel's footprint) is made for these only. `lockstep`: the render may trace in
+    /// lockstep lanes (it keeps no per-sample values and draws independent numbers).
     pub fn new(
         scene: &'a Scene,
         mono: bool,
         cancel: &'a AtomicBool,
         shared_spp: Option<u64>,
         pixels: Range<usize>,
+        lockstep: bool,
     ) -> Result<Self> {
         let nlos = scene.nlos()?;
         let settings = &nlos.settings;
@@ -280,7 +285,11 @@ impl<'a> NlosTracer<'a> {
             cancel,
             hidden,
             guide: None,
+            packet: None,
         };
+        if lockstep {
+            tracer.packet = PathPacket::nlos(scene, nlos, &tracer.scan.capture.spots, mono);
+        }
         let judged = hidden.is_some_and(AreaSampler::judges_facing);
         // Per shape a first vertex may lie on (its tests run over every laser spot: once per
         // shape, not per pixel).
@@ -790,6 +799,10 @@ impl Tracer for NlosTracer<'_> {
     #[inline]
     fn bounce(&self, path: &mut NlosPath, rng: &mut Sampler, out: &mut impl FnMut(Splat)) -> bool {
         NlosTracer::bounce(self, path, rng, out)
+    }
+
+    fn packet(&self) -> Option<&PathPacket<'_>> {
+        self.packet.as_ref()
     }
 
     fn trace_light(&self, rng: &mut Sampler) -> Option<Self::Light> {

@@ -28,6 +28,7 @@
 use super::Splat;
 use super::path::mis;
 use crate::bsdf::Bsdf;
+use crate::capture::Spot;
 use crate::emitter::Light;
 use crate::error::{NlosError, Result};
 use crate::geometry::Prim;
@@ -37,9 +38,9 @@ use crate::sampling::{
     lane_key, lane_uniform, square_to_uniform_disk_concentric_lanes as square_to_disk,
     square_to_uniform_triangle_lanes as square_to_triangle,
 };
-use crate::scene::{Los, Scene};
+use crate::scene::{Los, Nlos, Scene};
 use crate::sensor::Camera;
-use crate::settings::PathSettings;
+use crate::settings::CaptureType;
 use crate::simd::{F8, M8};
 use glam::Vec3A;
 use std::f32::consts::FRAC_1_PI;
@@ -60,8 +61,10 @@ struct Surface {
     n: [f32; 3],
     /// Unit geometric normal (for an area light's density in solid angle).
     ng: [f32; 3],
-    /// Diffuse reflectance.
-    albedo: [f32; 3],
+    /// Diffuse reflectance of the front (the side the shading normal points to) and of the back.
+    albedo: [[f32; 3]; 2],
+    /// It scatters on both sides (`twosided`); else a path that meets its back ends there.
+    two_sided: bool,
     /// Plane key ([`PacketScene::plane`]).
     plane: f32,
     /// Index in `emitters` of the area light the triangle belongs to, or `u32::MAX`.
@@ -111,6 +114,7 @@ struct LightPart {
 }
 
 /// The light parts the lanes chose, in lanes.
+#[derive(Clone, Copy)]
 struct LightLanes<const C: usize> {
     v0: [F8; 3],
     e1: [F8; 3],
@@ -131,17 +135,73 @@ struct Emitter {
     area_pdf: f32,
 }
 
-/// A prepared lockstep render of a scene ([`PathPacket::new`] says whether it can be).
+/// How the lanes' paths are counted and cut: `transient_path`'s or `transient_nlos_path`'s
+/// settings, in one form.
+#[derive(Clone, Copy, Debug)]
+struct Rules {
+    /// A path ends at its vertex of loop depth d where d + 1 ≥ this.
+    max_depth: u32,
+    /// Loop depth from which Russian roulette applies.
+    rr_depth: u32,
+    /// What of the camera ray's length the optical path counts.
+    first_leg: FirstLeg,
+    /// Emission the camera ray finds is dropped (`discard_direct_light`).
+    discard_direct_light: bool,
+    /// Vertices connect from this loop depth on.
+    connect_from: u32,
+    /// The only loop depth whose vertex connects, after which the path ends (NLOS
+    /// `filter_bounces`).
+    connect_only: Option<u32>,
+}
+
+/// What of the camera ray's length the optical path counts.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum FirstLeg {
+    /// None (`camera_unwarp`; an NLOS capture that does not account for its first bounce).
+    Skipped,
+    /// From the near clip plane on (`opl_from_near_clip`).
+    FromNearClip,
+    /// All of it.
+    Whole,
+}
+
+/// What the lanes' vertices connect to.
+enum Target {
+    /// Line of sight: the area lights' parts, by next-event estimation under multiple importance
+    /// sampling with the emission BSDF sampling finds; each part's cumulative probability (the
+    /// last 1).
+    Lights {
+        parts: Vec<LightPart>,
+        cdf: Vec<f32>,
+    },
+    /// NLOS laser sampling (mitransient-model §3.4): the laser spot of a single capture, as a
+    /// light part of a single point of Lambertian radiance (BSDF sampling cannot find it: no
+    /// MIS), with the optical path from it back to the laser.
+    Spot(SpotPart),
+}
+
+/// A laser spot as the lanes connect to it.
+#[derive(Clone, Copy, Debug)]
+struct SpotPart {
+    /// The spot as a light part of one point.
+    part: LightPart,
+    /// The optical path from it back to the laser.
+    last_leg: f64,
+    /// The laser lights it (else it connects nothing).
+    lit: bool,
+}
+
+/// A prepared lockstep render of a scene ([`PathPacket::new`] and [`PathPacket::nlos`] say
+/// whether it can be).
 pub struct PathPacket<'a> {
     camera: &'a Camera,
-    settings: &'a PathSettings,
+    rules: Rules,
     width: usize,
     height: usize,
     geometry: PacketScene,
     surfaces: Vec<Surface>,
-    lights: Vec<LightPart>,
-    /// Cumulative probability of each light part (the last is 1).
-    light_cdf: Vec<f32>,
+    target: Target,
+    /// The area lights (none in an NLOS capture).
     emitters: Vec<Emitter>,
     /// Per triangle, its vertex normals as lanes interpolate them (read for [`Surface::curved`]
     /// triangles only).
@@ -149,19 +209,75 @@ pub struct PathPacket<'a> {
     mono: bool,
 }
 
+/// The triangles of a scene as lanes read them: the packet scene, each triangle's surface and
+/// its vertex normals.
+type LaneSurfaces = (PacketScene, Vec<Surface>, Vec<Smooth>);
+
+/// The lockstep form of `scene`'s triangles, if its every primitive is a triangle (at most
+/// [`crate::geometry::ray_packet::MAX_TRIANGLES`]) and its every BSDF `diffuse` or a `twosided`
+/// pair of them; `shape_emitter`: per shape, the index of its area light or `u32::MAX`.
+fn lane_surfaces(scene: &Scene, shape_emitter: &[u32], mono: bool) -> Option<LaneSurfaces> {
+    let geometry = PacketScene::new(&scene.prims, |i, j| {
+        scene.prim_shape[i] == scene.prim_shape[j]
+    })?;
+    let bsdfs = scene.shape_bsdfs(mono);
+    let mut surfaces = Vec::with_capacity(scene.prims.len());
+    let mut smooth = Vec::with_capacity(scene.prims.len());
+    for (i, prim) in scene.prims.iter().enumerate() {
+        let Prim::Triangle { v, n } = *prim else {
+            return None;
+        };
+        // A triangle's vertex normals that are all one (a flat face's, as a mesh file rounds
+        // it) are the shading normal of its every point; others are interpolated at each hit
+        // (`curved`).
+        let shape = scene.prim_shape[i] as usize;
+        let emitter = shape_emitter[shape];
+        let (ng, ns, curved) = match scene.prim_normals[i] {
+            None => (n, n, false),
+            Some(vn) => {
+                let m = vn[0].normalize_or(n);
+                let curved = vn.iter().any(|k| k.normalize_or(n).dot(m) < 1.0 - 1e-6);
+                // A light sample's cosine is taken with one normal per light triangle.
+                if curved && emitter != u32::MAX {
+                    return None;
+                }
+                (n, m, curved)
+            }
+        };
+        let (albedo, two_sided) = match &bsdfs[shape] {
+            Bsdf::Diffuse(d) => ([d.reflectance.to_array(); 2], false),
+            Bsdf::TwoSided(t) => match (&*t.front, &*t.back) {
+                (Bsdf::Diffuse(f), Bsdf::Diffuse(b)) => {
+                    ([f.reflectance.to_array(), b.reflectance.to_array()], true)
+                }
+                _ => return None,
+            },
+            _ => return None,
+        };
+        let sign = scene.normal_sign(shape);
+        smooth.push(Smooth::new(v, scene.prim_normals[i], ng, sign));
+        let (n, ng) = (ns * sign, ng * sign);
+        surfaces.push(Surface {
+            n: n.to_array(),
+            ng: ng.to_array(),
+            albedo,
+            two_sided,
+            plane: geometry.plane(i as u32),
+            emitter,
+            curved,
+        });
+    }
+    Some((geometry, surfaces, smooth))
+}
+
 impl<'a> PathPacket<'a> {
-    /// The lockstep render of `scene`, if its every primitive is a triangle (at most
-    /// [`crate::geometry::ray_packet::MAX_TRIANGLES`]), its every BSDF `diffuse`, and its lights
-    /// area lights of uniform radiance on flat-shaded triangles; else `None` (the scalar path
-    /// tracer renders it).
+    /// The lockstep render of the line-of-sight `scene`, if its triangles allow
+    /// ([`lane_surfaces`]) and its lights are area lights of uniform radiance on flat-shaded
+    /// triangles; else `None` (the scalar path tracer renders it).
     pub fn new(scene: &Scene, los: &'a Los, mono: bool) -> Option<Self> {
         if los.lights.is_empty() {
             return None;
         }
-        let geometry = PacketScene::new(&scene.prims, |i, j| {
-            scene.prim_shape[i] == scene.prim_shape[j]
-        })?;
-        let bsdfs = scene.shape_bsdfs(mono);
         let mut emitters = Vec::new();
         let mut shape_emitter = vec![u32::MAX; scene.shapes.len()];
         for light in &los.lights {
@@ -186,44 +302,7 @@ impl<'a> PathPacket<'a> {
                 area_pdf: 1.0 / (area * los.lights.len() as f32),
             });
         }
-        let mut surfaces = Vec::with_capacity(scene.prims.len());
-        let mut smooth = Vec::with_capacity(scene.prims.len());
-        for (i, prim) in scene.prims.iter().enumerate() {
-            let Prim::Triangle { v, n } = *prim else {
-                return None;
-            };
-            // A triangle's vertex normals that are all one (a flat face's, as a mesh file rounds
-            // it) are the shading normal of its every point; others are interpolated at each hit
-            // (`curved`).
-            let shape = scene.prim_shape[i] as usize;
-            let emitter = shape_emitter[shape];
-            let (ng, ns, curved) = match scene.prim_normals[i] {
-                None => (n, n, false),
-                Some(vn) => {
-                    let m = vn[0].normalize_or(n);
-                    let curved = vn.iter().any(|k| k.normalize_or(n).dot(m) < 1.0 - 1e-6);
-                    // A light sample's cosine is taken with one normal per light triangle.
-                    if curved && emitter != u32::MAX {
-                        return None;
-                    }
-                    (n, m, curved)
-                }
-            };
-            let Bsdf::Diffuse(d) = &bsdfs[shape] else {
-                return None;
-            };
-            let sign = scene.normal_sign(shape);
-            smooth.push(Smooth::new(v, scene.prim_normals[i], ng, sign));
-            let (n, ng) = (ns * sign, ng * sign);
-            surfaces.push(Surface {
-                n: n.to_array(),
-                ng: ng.to_array(),
-                albedo: d.reflectance.to_array(),
-                plane: geometry.plane(i as u32),
-                emitter,
-                curved,
-            });
-        }
+        let (geometry, surfaces, smooth) = lane_surfaces(scene, &shape_emitter, mono)?;
         // The light parts: each light triangle, but the two of a parallelogram as one where they
         // share both normals (a light sample's cosines are taken with its part's).
         let mut corners = vec![None; scene.prims.len()];
@@ -236,7 +315,7 @@ impl<'a> PathPacket<'a> {
                 second[j as usize] = true;
             }
         }
-        let (mut lights, mut weights) = (Vec::new(), Vec::new());
+        let (mut parts, mut weights) = (Vec::new(), Vec::new());
         for (i, surface) in surfaces.iter().enumerate() {
             if surface.emitter == u32::MAX || second[i] {
                 continue;
@@ -247,7 +326,7 @@ impl<'a> PathPacket<'a> {
             };
             let (corner, quad) = (corners[i].unwrap_or(v), corners[i].is_some());
             let emitter = emitters[surface.emitter as usize];
-            lights.push(LightPart {
+            parts.push(LightPart {
                 v0: corner[0].to_array(),
                 e1: (corner[1] - corner[0]).to_array(),
                 e2: (corner[2] - corner[0]).to_array(),
@@ -260,24 +339,108 @@ impl<'a> PathPacket<'a> {
         }
         let total: f64 = weights.iter().sum();
         let mut acc = 0.0;
-        let mut light_cdf: Vec<f32> = weights
+        let mut cdf: Vec<f32> = weights
             .iter()
             .map(|w| {
                 acc += w;
                 (acc / total) as f32
             })
             .collect();
-        *light_cdf.last_mut()? = 1.0;
+        *cdf.last_mut()? = 1.0;
+        let st = &los.settings;
         Some(Self {
             camera: &los.camera,
-            settings: &los.settings,
+            rules: Rules {
+                max_depth: st.max_depth,
+                rr_depth: st.rr_depth,
+                first_leg: if st.camera_unwarp {
+                    FirstLeg::Skipped
+                } else if st.opl_from_near_clip {
+                    FirstLeg::FromNearClip
+                } else {
+                    FirstLeg::Whole
+                },
+                discard_direct_light: st.discard_direct_light,
+                connect_from: 0,
+                connect_only: None,
+            },
             width: scene.meter.film.width,
             height: scene.meter.film.height,
             geometry,
             surfaces,
-            lights,
-            light_cdf,
+            target: Target::Lights { parts, cdf },
             emitters,
+            smooth,
+            mono,
+        })
+    }
+
+    /// The lockstep render of the NLOS `scene` (`transient_nlos_path`) whose laser spots are
+    /// `spots`, if a perspective camera finds its paths' first vertices, laser sampling connects
+    /// them to the one spot of a single capture, Lambertian, with hidden-geometry sampling off,
+    /// and its triangles allow ([`lane_surfaces`]); else `None` (the scalar tracer renders it). Its paths are [`super::nlos`]'s: the same connections, depths and roulette.
+    pub fn nlos(scene: &Scene, nlos: &'a Nlos, spots: &[Spot], mono: bool) -> Option<Self> {
+        let st = &nlos.settings;
+        let camera = nlos.camera.as_ref()?;
+        // A path's vertex at loop depth d makes a contribution of depth d + 2 (the spot and the
+        // laser are two more vertices); `filter_bounces` keeps one depth, ≥ 2.
+        let connect_only = match st.filter_depth {
+            Some(f) => Some(f.checked_sub(2)?),
+            None => None,
+        };
+        // (A camera captures single only: one laser spot.)
+        let [spot] = spots else {
+            return None;
+        };
+        if !st.laser_sampling
+            || st.hidden_geometry_sampling
+            || st.capture_type != CaptureType::Single
+        {
+            return None;
+        }
+        let (geometry, surfaces, smooth) =
+            lane_surfaces(scene, &vec![u32::MAX; scene.shapes.len()], mono)?;
+        let radiance = spot.radiance?;
+        let ns = spot.it.ns.to_array();
+        let spot = SpotPart {
+            part: LightPart {
+                v0: spot.it.p.to_array(),
+                e1: [0.0; 3],
+                e2: [0.0; 3],
+                quad: false,
+                surface: Surface {
+                    n: ns,
+                    ng: ns,
+                    ..surfaces[spot.it.prim as usize]
+                },
+                emitter: Emitter {
+                    radiance: radiance.to_array(),
+                    area_pdf: 1.0,
+                },
+            },
+            last_leg: spot.last_leg,
+            lit: radiance != Spectrum::ZERO && spot.incident != Spectrum::ZERO,
+        };
+        Some(Self {
+            camera,
+            rules: Rules {
+                max_depth: st.max_depth,
+                rr_depth: st.rr_depth,
+                first_leg: if st.account_first_and_last_bounces {
+                    FirstLeg::Whole
+                } else {
+                    FirstLeg::Skipped
+                },
+                discard_direct_light: false,
+                connect_from: if st.discard_direct_paths { 1 } else { 0 },
+                connect_only,
+            },
+            width: scene.meter.film.width,
+            height: scene.meter.film.height,
+            geometry,
+            surfaces,
+            target: Target::Spot(spot),
+            emitters: Vec::new(),
             smooth,
             mono,
         })
@@ -314,9 +477,16 @@ impl<'a> PathPacket<'a> {
         cancel: &AtomicBool,
         out: &mut impl FnMut(Splat),
     ) -> Result<()> {
-        let st = self.settings;
+        let st = self.rules;
         let b = F8::splat;
         let pixel_key = lane_key(seed, pixel as u64);
+        // The pixel's laser spot in lanes, and the optical path from it back to the laser.
+        let spot = match &self.target {
+            Target::Lights { .. } => None,
+            Target::Spot(spot) => Some(*spot),
+        };
+        let dark = spot.is_some_and(|s| !s.lit);
+        let spot = spot.map(|s| (part_lanes::<C>(&s.part), s.last_leg));
         let mut next = samples.start;
         let mut p = Paths::<C>::default();
         loop {
@@ -356,7 +526,7 @@ impl<'a> PathPacket<'a> {
             let (t, prim) = self.geometry.closest(&p.ray);
             // What each lane hit, gathered into lanes.
             let mut hit = Lanes::<C>::default();
-            let mut curved = 0;
+            let (mut curved, mut two_sided) = (0, 0);
             for l in 0..L {
                 if prim[l] == u32::MAX {
                     p.alive &= !(1 << l);
@@ -367,10 +537,12 @@ impl<'a> PathPacket<'a> {
                     hit.n[a][l] = s.n[a];
                 }
                 for c in 0..C {
-                    hit.albedo[c][l] = s.albedo[c];
+                    hit.albedo[0][c][l] = s.albedo[0][c];
+                    hit.albedo[1][c][l] = s.albedo[1][c];
                 }
                 (hit.plane[l], hit.emitter[l]) = (s.plane, s.emitter);
                 curved |= (s.curved as u32) << l;
+                two_sided |= (s.two_sided as u32) << l;
             }
             let tv = F8::load(&t);
             let o = p.ray.o.each_ref().map(F8::load);
@@ -389,55 +561,47 @@ impl<'a> PathPacket<'a> {
                     n[a] = F8::select(m, ni[a], n[a]);
                 }
             }
-            let cos_i = (b(0.0) - dot(&n, &d)).store();
+            // The cosine at the front (an emitter's side), and then at the side the ray meets a
+            // two-sided surface on, whose normal and albedo are that side's (`twosided`).
+            let cos_front = b(0.0) - dot(&n, &d);
+            let mut cos_i = cos_front;
+            let mut albedo = hit.albedo[0].each_ref().map(F8::load);
+            if two_sided != 0 {
+                let back = M8::from_bits(two_sided) & !cos_front.gt(b(0.0));
+                for a in 0..3 {
+                    n[a] = F8::select(back, -n[a], n[a]);
+                }
+                cos_i = F8::select(back, -cos_front, cos_front);
+                for c in 0..C {
+                    albedo[c] = F8::select(back, F8::load(&hit.albedo[1][c]), albedo[c]);
+                }
+            }
+            let (cos_front, cos_i) = (cos_front.store(), cos_i.store());
             for l in 0..L {
-                p.opl[l] += match p.depth[l] {
-                    0 if st.camera_unwarp => 0.0,
-                    0 if st.opl_from_near_clip => (t[l] - p.ray.tmin[l]) as f64,
+                p.opl[l] += match (p.depth[l], st.first_leg) {
+                    (0, FirstLeg::Skipped) => 0.0,
+                    (0, FirstLeg::FromNearClip) => (t[l] - p.ray.tmin[l]) as f64,
                     _ => t[l] as f64,
                 };
             }
             // ---- Emission found by the camera ray or by BSDF sampling (MIS against the light
             // sample that could have found it; a camera ray's is taken whole).
-            for l in 0..L {
-                let k = hit.emitter[l];
-                if p.alive >> l & 1 == 0
-                    || k == u32::MAX
-                    || cos_i[l] <= 0.0
-                    || (p.depth[l] == 0 && st.discard_direct_light)
-                {
-                    continue;
-                }
-                let e = &self.emitters[k as usize];
-                let w = if p.depth[l] == 0 {
-                    1.0
-                } else {
-                    // The density of the light sample that could have found this point: its
-                    // cosine is the geometric normal's.
-                    let ng = &self.surfaces[prim[l] as usize].ng;
-                    let d = &p.ray.d;
-                    let cos_g = (ng[0] * d[0][l] + ng[1] * d[1][l] + ng[2] * d[2][l]).abs();
-                    let light_pdf = if cos_g > 0.0 {
-                        t[l] * t[l] * e.area_pdf / cos_g
-                    } else {
-                        0.0
-                    };
-                    mis(p.bsdf_pdf[l], light_pdf)
-                };
-                let mut v = [0.0; C];
-                for c in 0..C {
-                    v[c] = p.beta[c][l] * e.radiance[c] * w;
-                }
-                out(splat(p.opl[l], v));
+            if !self.emitters.is_empty() {
+                self.emission(&p, &hit, &prim, &t, &cos_front, out);
             }
-            let mut rr = 0;
+            let (mut rr, mut connects, mut last) = (0, 0, 0);
             for l in 0..L {
+                let depth = p.depth[l];
                 // Paths at their last vertex, and those that meet a surface from behind (a
                 // one-sided BSDF neither reflects nor connects there), end.
-                if p.depth[l].saturating_add(1) >= st.max_depth || !(cos_i[l] > 0.0) {
+                if depth.saturating_add(1) >= st.max_depth || !(cos_i[l] > 0.0) {
                     p.alive &= !(1 << l);
                 }
-                rr |= ((p.depth[l] >= st.rr_depth) as u32) << l;
+                rr |= ((depth >= st.rr_depth) as u32) << l;
+                let kept =
+                    !dark && depth >= st.connect_from && st.connect_only.is_none_or(|f| depth == f);
+                connects |= (kept as u32) << l;
+                last |= (st.connect_only.is_some_and(|f| depth >= f) as u32) << l;
             }
             if p.alive == 0 {
                 continue;
@@ -448,10 +612,13 @@ impl<'a> PathPacket<'a> {
                 dim[l] = p.depth[l].wrapping_mul(DIMS_PER_BOUNCE);
             }
             let beta = p.beta.each_ref().map(F8::load);
-            let albedo = hit.albedo.each_ref().map(F8::load);
-            // ---- Next-event estimation: a light part, a point on it, its contribution
-            // weighted against BSDF sampling, and a shadow ray for the lanes it lights.
-            let light = self.light_lanes::<C>(&p, dim);
+            // ---- Next-event estimation: a light part (or the laser spot), a point on it, its
+            // contribution (weighted against BSDF sampling where that could find it too), and a
+            // shadow ray for the lanes it lights.
+            let (light, last_leg) = match &spot {
+                Some((s, last_leg)) => (*s, *last_leg),
+                None => (self.light_lanes::<C>(&p, dim), 0.0),
+            };
             let (u1, u2) = (F8::load(&p.uniforms(dim, 3)), F8::load(&p.uniforms(dim, 4)));
             let (b1, b2) = square_to_triangle(u1, u2);
             let (b1, b2) = (
@@ -469,12 +636,18 @@ impl<'a> PathPacket<'a> {
             // The light's cosines (one-sided: its front faces x; the density's is the geometric
             // normal's) and the BSDF's.
             let cos_l = b(0.0) - dot(&light.n, &w);
-            let cos_g = dot(&light.ng, &w).abs();
             let cos_o = dot(&n, &w);
-            let light_pdf = r2 * light.area_pdf / cos_g;
             let bsdf_pdf = cos_o * b(FRAC_1_PI);
-            let weight = mis_lanes(light_pdf, bsdf_pdf) * bsdf_pdf / light_pdf;
-            let lights = alive & cos_l.gt(b(0.0)) & cos_o.gt(b(0.0));
+            let mut lights = alive & M8::from_bits(connects) & cos_l.gt(b(0.0)) & cos_o.gt(b(0.0));
+            let weight = if spot.is_some() {
+                // The spot: f·cos_o·cos_l / r² (a vertex on the spot's own plane sees it at a
+                // grazing angle, as rounding makes it: nothing).
+                lights = lights & light.plane.ne(F8::load(&hit.plane));
+                bsdf_pdf * cos_l / r2
+            } else {
+                let light_pdf = r2 * light.area_pdf / dot(&light.ng, &w).abs();
+                mis_lanes(light_pdf, bsdf_pdf) * bsdf_pdf / light_pdf
+            };
             let mut lit = [[0.0; L]; C];
             for c in 0..C {
                 let v = beta[c] * albedo[c] * light.radiance[c] * weight;
@@ -497,9 +670,11 @@ impl<'a> PathPacket<'a> {
                     for c in 0..C {
                         v[c] = lit[c][l];
                     }
-                    out(splat(p.opl[l] + shadow.tmax[l] as f64, v));
+                    out(splat(p.opl[l] + shadow.tmax[l] as f64 + last_leg, v));
                 }
             }
+            // Paths whose only kept connection was this vertex's end.
+            p.alive &= !last;
             // ---- BSDF sampling (cosine-weighted: the weight is the albedo), then Russian
             // roulette as Mitsuba plays it.
             let (v1, v2) = (p.uniforms(dim, 5), p.uniforms(dim, 6));
@@ -540,21 +715,14 @@ impl PathPacket<'_> {
     #[inline(always)]
     fn light_lanes<const C: usize>(&self, p: &Paths<C>, dim: U) -> LightLanes<C> {
         let b = F8::splat;
-        if let [part] = &self.lights[..] {
-            return LightLanes {
-                v0: part.v0.map(b),
-                e1: part.e1.map(b),
-                e2: part.e2.map(b),
-                quad: M8::from_bits(if part.quad { u32::MAX } else { 0 }),
-                n: part.surface.n.map(b),
-                ng: part.surface.ng.map(b),
-                plane: b(part.surface.plane),
-                radiance: std::array::from_fn(|c| b(part.emitter.radiance[c])),
-                area_pdf: b(part.emitter.area_pdf),
-            };
+        let Target::Lights { parts, cdf } = &self.target else {
+            unreachable!("light parts are sampled in line of sight only");
+        };
+        if let [part] = &parts[..] {
+            return part_lanes(part);
         }
         let pick = F8::load(&p.uniforms(dim, 2));
-        let chosen = (self.light_cdf[..self.lights.len() - 1].iter())
+        let chosen = (cdf[..parts.len() - 1].iter())
             .fold(b(0.0), |i, &c| {
                 i + F8::select(b(c).le(pick), b(1.0), b(0.0))
             })
@@ -564,7 +732,7 @@ impl PathPacket<'_> {
         let (mut plane, mut area_pdf, mut radiance) = ([0.0; L], [0.0; L], [[0.0; L]; C]);
         let mut quad = 0;
         for l in 0..L {
-            let part = &self.lights[chosen[l] as usize];
+            let part = &parts[chosen[l] as usize];
             for a in 0..3 {
                 (v0[a][l], e1[a][l], e2[a][l]) = (part.v0[a], part.e1[a], part.e2[a]);
                 (n[a][l], ng[a][l]) = (part.surface.n[a], part.surface.ng[a]);
@@ -588,12 +756,76 @@ impl PathPacket<'_> {
             area_pdf: F8::load(&area_pdf),
         }
     }
+
+    /// Emission found by the lanes' rays at their hits (`prim` at distance `t`, met at the cosine
+    /// `cos_front` with the front's normal) on area lights: a camera ray's taken whole (unless
+    /// `discard_direct_light`), BSDF sampling's weighted against the light sample that could have
+    /// found it.
+    #[inline(always)]
+    fn emission<const C: usize>(
+        &self,
+        p: &Paths<C>,
+        hit: &Lanes<C>,
+        prim: &U,
+        t: &F,
+        cos_front: &F,
+        out: &mut impl FnMut(Splat),
+    ) {
+        for l in 0..L {
+            let k = hit.emitter[l];
+            if p.alive >> l & 1 == 0
+                || k == u32::MAX
+                || cos_front[l] <= 0.0
+                || (p.depth[l] == 0 && self.rules.discard_direct_light)
+            {
+                continue;
+            }
+            let e = &self.emitters[k as usize];
+            let w = if p.depth[l] == 0 {
+                1.0
+            } else {
+                // The density of the light sample that could have found this point: its
+                // cosine is the geometric normal's.
+                let ng = &self.surfaces[prim[l] as usize].ng;
+                let d = &p.ray.d;
+                let cos_g = (ng[0] * d[0][l] + ng[1] * d[1][l] + ng[2] * d[2][l]).abs();
+                let light_pdf = if cos_g > 0.0 {
+                    t[l] * t[l] * e.area_pdf / cos_g
+                } else {
+                    0.0
+                };
+                mis(p.bsdf_pdf[l], light_pdf)
+            };
+            let mut v = [0.0; C];
+            for c in 0..C {
+                v[c] = p.beta[c][l] * e.radiance[c] * w;
+            }
+            out(splat(p.opl[l], v));
+        }
+    }
 }
 
-/// What the lanes hit, by lane: normal, albedo, plane key and emitter.
+/// The light part `part` in every lane.
+#[inline(always)]
+fn part_lanes<const C: usize>(part: &LightPart) -> LightLanes<C> {
+    let b = F8::splat;
+    LightLanes {
+        v0: part.v0.map(b),
+        e1: part.e1.map(b),
+        e2: part.e2.map(b),
+        quad: M8::from_bits(if part.quad { u32::MAX } else { 0 }),
+        n: part.surface.n.map(b),
+        ng: part.surface.ng.map(b),
+        plane: b(part.surface.plane),
+        radiance: std::array::from_fn(|c| b(part.emitter.radiance[c])),
+        area_pdf: b(part.emitter.area_pdf),
+    }
+}
+
+/// What the lanes hit, by lane: normal, albedo (front and back), plane key and emitter.
 struct Lanes<const C: usize> {
     n: [F; 3],
-    albedo: [F; C],
+    albedo: [[F; C]; 2],
     plane: F,
     emitter: U,
 }
@@ -602,7 +834,7 @@ impl<const C: usize> Default for Lanes<C> {
     fn default() -> Self {
         Self {
             n: [[0.0; L]; 3],
-            albedo: [[0.0; L]; C],
+            albedo: [[[0.0; L]; C]; 2],
             plane: [NO_PLANE; L],
             emitter: [u32::MAX; L],
         }

@@ -1,8 +1,12 @@
-//! `transient_path` in lockstep lanes (`integrator::path_packet`): its samplers give the scalar
-//! routines' bits, its counter-based numbers are uniform, its ray packets meet what the BVH meets,
-//! and its renders agree with the scalar path tracer's on mitransient's Cornell box file and on
-//! variants of it (curved shading normals, finite depth, Russian roulette from the second bounce,
-//! camera unwarping, direct light discarded, mono and rgb), whatever the thread count.
+//! Paths in lockstep lanes (`integrator::path_packet`): its samplers give the scalar routines'
+//! bits, its counter-based numbers are uniform, its ray packets meet what the BVH meets, and its
+//! renders agree with the scalar tracers' whatever the thread count — `transient_path` on
+//! mitransient's Cornell box file and on variants of it (curved shading normals, finite depth,
+//! Russian roulette from the second bounce, camera unwarping, direct light discarded, many
+//! lights, mono and rgb), and `transient_nlos_path` on mitransient's camera files with
+//! hidden-geometry sampling off (two-sided surfaces with two
+//! reflectances, one-sided ones, finite depth, `filter_bounces`, direct paths discarded, first and
+//! last bounces accounted for).
 
 // Loops over the lanes index several arrays by one lane at once.
 #![allow(clippy::needless_range_loop)]
@@ -11,6 +15,7 @@ mod common;
 
 use glam::{Vec2, Vec3A};
 use nlos_rs::Scene;
+use nlos_rs::capture::Capture;
 use nlos_rs::geometry::Prim;
 use nlos_rs::geometry::ray_packet::{LANES, NO_PLANE, Packet, PacketScene};
 use nlos_rs::integrator::path_packet::PathPacket;
@@ -25,6 +30,7 @@ use nlos_rs::simd::F8;
 use std::collections::HashMap;
 use std::f32::consts::FRAC_1_SQRT_2;
 use std::path::{Path, PathBuf};
+use std::sync::atomic::AtomicBool;
 
 fn cbox_dir() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/mitransient/cornell-box")
@@ -555,19 +561,120 @@ fn lockstep_agrees_with_the_scalar_tracer() {
             PathPacket::new(scene, los(scene), *mono).is_some() || !nlos_rs::simd::available(),
             "{name}: not lockstep"
         );
-        let lockstep: Vec<_> = (0..16)
-            .map(|s| features(&run(scene, *mono, 256, s, false, 2)))
-            .collect();
-        let scalar: Vec<_> = (100..116)
-            .map(|s| features(&run(scene, *mono, 256, s, true, 2)))
-            .collect();
-        let n = agree(name, &lockstep, &scalar);
-        println!("{name}: {n} features agree");
-        let one = run(scene, *mono, 64, 7, false, 1);
-        for threads in [2, 3] {
-            let other = run(scene, *mono, 64, 7, false, threads);
-            assert_eq!(one.transient, other.transient, "{name}: {threads} threads");
-            assert_eq!(one.steady, other.steady, "{name}: {threads} threads");
+        agrees_with_the_scalar_tracer(name, scene, *mono);
+    }
+}
+
+/// Assert that lockstep renders of `scene` agree with the scalar tracer's (16 seeds each, every
+/// pixel and channel and the time profile) and are bit-identical at 1, 2 and 3 threads.
+fn agrees_with_the_scalar_tracer(name: &str, scene: &Scene, mono: bool) {
+    let lockstep: Vec<_> = (0..16)
+        .map(|s| features(&run(scene, mono, 256, s, false, 2)))
+        .collect();
+    let scalar: Vec<_> = (100..116)
+        .map(|s| features(&run(scene, mono, 256, s, true, 2)))
+        .collect();
+    let n = agree(name, &lockstep, &scalar);
+    println!("{name}: {n} features agree");
+    let one = run(scene, mono, 64, 7, false, 1);
+    for threads in [2, 3] {
+        let other = run(scene, mono, 64, 7, false, threads);
+        assert_eq!(one.transient, other.transient, "{name}: {threads} threads");
+        assert_eq!(one.steady, other.steady, "{name}: {threads} threads");
+    }
+}
+
+/// mitransient's NLOS file `file` (a perspective camera looks at the relay wall) on an 8×8 film
+/// with hidden-geometry sampling off, with `edit` applied to its text.
+fn nlos_file(file: &str, edit: impl Fn(String) -> String) -> Scene {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/mitransient/transient-nlos");
+    let text = std::fs::read_to_string(dir.join(file)).expect("the file");
+    let text = edit(
+        text.replace(
+            "name=\"nlos_hidden_geometry_sampling\" value=\"true\"",
+            "name=\"nlos_hidden_geometry_sampling\" value=\"false\"",
+        )
+        .replace("name=\"width\" value=\"32\"", "name=\"width\" value=\"8\"")
+        .replace(
+            "name=\"height\" value=\"32\"",
+            "name=\"height\" value=\"8\"",
+        ),
+    );
+    let props = nlos_rs::xml::parse(&text, &dir.join(file), &HashMap::new()).expect("parses");
+    Scene::from_props(&props, &dir).expect("valid scene")
+}
+
+/// `transient_nlos_path` in lockstep lanes agrees with the scalar tracer on mitransient's camera
+/// files (the Z in a room, the Z alone) and on variants of them.
+#[test]
+fn nlos_lockstep_agrees_with_the_scalar_tracer() {
+    let integrator = |extra: &'static str| {
+        move |t: String| {
+            t.replace(
+                "<integrator type=\"transient_nlos_path\">",
+                &format!("<integrator type=\"transient_nlos_path\">{extra}"),
+            )
         }
+    };
+    let cases: Vec<(&str, Scene, bool)> = vec![
+        (
+            "nlos-z-room.xml, mono",
+            nlos_file("nlos-z-room.xml", |t| t),
+            true,
+        ),
+        (
+            "nlos-z-simple.xml, depth 4, first and last bounces accounted for, rgb",
+            nlos_file("nlos-z-simple.xml", |t| {
+                integrator("<integer name=\"max_depth\" value=\"4\"/>")(t)
+                    .replace(
+                        "name=\"account_first_and_last_bounces\" value=\"False\"",
+                        "name=\"account_first_and_last_bounces\" value=\"True\"",
+                    )
+                    // The two legs (about 2.8 m each) move the window on.
+                    .replace(
+                        "name=\"start_opl\" value=\"5.25\"",
+                        "name=\"start_opl\" value=\"10.9\"",
+                    )
+            }),
+            false,
+        ),
+        (
+            "nlos-z-room.xml, two reflectances a side, direct paths discarded, roulette from depth 2, rgb",
+            nlos_file("nlos-z-room.xml", |t| {
+                integrator("<integer name=\"rr_depth\" value=\"2\"/>")(t)
+                    .replace(
+                        "<bsdf type=\"diffuse\" name=\"bsdf\"/>",
+                        "<bsdf type=\"diffuse\"><rgb name=\"reflectance\" value=\"0.8, 0.6, 0.3\"/></bsdf>\
+                         <bsdf type=\"diffuse\"><rgb name=\"reflectance\" value=\"0.1, 0.3, 0.9\"/></bsdf>",
+                    )
+                    .replace(
+                        "name=\"discard_direct_paths\" value=\"False\"",
+                        "name=\"discard_direct_paths\" value=\"True\"",
+                    )
+            }),
+            false,
+        ),
+        (
+            "nlos-z-room.xml, one-sided, filter_bounces 3, mono",
+            nlos_file("nlos-z-room.xml", |t| {
+                integrator("<integer name=\"filter_bounces\" value=\"3\"/>")(t).replace(
+                    "<ref id=\"default-bsdf\" name=\"bsdf\"/>",
+                    "<bsdf type=\"diffuse\"><float name=\"reflectance\" value=\"0.7\"/></bsdf>",
+                )
+            }),
+            true,
+        ),
+    ];
+    for (name, scene, mono) in &cases {
+        let Setup::Nlos(nlos) = &scene.setup else {
+            panic!("{name}: an NLOS scene")
+        };
+        let capture = Capture::new(scene, *mono, &AtomicBool::new(false)).expect("capture");
+        assert!(
+            PathPacket::nlos(scene, nlos, &capture.spots, *mono).is_some()
+                || !nlos_rs::simd::available(),
+            "{name}: not lockstep"
+        );
+        agrees_with_the_scalar_tracer(name, scene, *mono);
     }
 }
