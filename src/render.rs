@@ -902,6 +902,7 @@ impl<'a, T: Tracer> Sampling<'a, T> {
                     task.pixel,
                     task.first..task.end,
                     self.plan.seed,
+                    self.tracer.first_cone(task.pixel),
                     &self.monitor.cancel,
                     &mut |s: Splat| {
                         self.deposit(&s, buf, sum, None, 0);

@@ -111,6 +111,12 @@ pub trait Tracer: Sync {
         None
     }
 
+    /// The cone of `pixel` that turns its samples down by their first direction before anything
+    /// is traced ([`Self::turned_down`]), for its lockstep render ([`Self::packet`]).
+    fn first_cone(&self, _pixel: usize) -> Option<&scan_cone::ScanCone> {
+        None
+    }
+
     /// Start a path sample of `pixel` (row-major).
     fn begin(&self, pixel: usize, rng: &mut Sampler) -> Self::Path;
 

@@ -805,6 +805,13 @@ impl Tracer for NlosTracer<'_> {
         self.packet.as_ref()
     }
 
+    fn first_cone(&self, pixel: usize) -> Option<&ScanCone> {
+        match self.first_draw[pixel] {
+            FirstDraw::Cone => self.scan.scan_cones[pixel].as_ref(),
+            _ => None,
+        }
+    }
+
     fn trace_light(&self, rng: &mut Sampler) -> Option<Self::Light> {
         NlosTracer::trace_light(self, rng)
     }

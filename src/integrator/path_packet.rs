@@ -27,6 +27,7 @@
 
 use super::Splat;
 use super::path::mis;
+use super::scan_cone::ScanCone;
 use crate::bsdf::Bsdf;
 use crate::capture::Spot;
 use crate::emitter::Light;
@@ -42,7 +43,7 @@ use crate::scene::{Los, Nlos, Scene};
 use crate::sensor::Camera;
 use crate::settings::CaptureType;
 use crate::simd::{F8, M8};
-use glam::Vec3A;
+use glam::{Vec2, Vec3A};
 use std::f32::consts::FRAC_1_PI;
 use std::ops::Range;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -447,12 +448,16 @@ impl<'a> PathPacket<'a> {
     }
 
     /// Trace samples `samples` of `pixel` (row-major), passing every contribution to `out`
-    /// (laser slot 0); stops with [`NlosError::Interrupted`] once `cancel` is set.
+    /// (laser slot 0); stops with [`NlosError::Interrupted`] once `cancel` is set. `cone`: the
+    /// pixel's cone, which ends a sample with nothing traced where its first direction's square
+    /// sample surely meets nothing ([`ScanCone::may_reach_square`]; the caller knows that the
+    /// pixel's first vertex connects nothing and draws its direction about the cone's normal).
     pub fn trace(
         &self,
         pixel: usize,
         samples: Range<u64>,
         seed: u64,
+        cone: Option<&ScanCone>,
         cancel: &AtomicBool,
         out: &mut impl FnMut(Splat),
     ) -> Result<()> {
@@ -460,9 +465,9 @@ impl<'a> PathPacket<'a> {
         // `PacketScene`).
         unsafe {
             if self.mono {
-                self.lanes::<1>(pixel, samples, seed, cancel, out)
+                self.lanes::<1>(pixel, samples, seed, cone, cancel, out)
             } else {
-                self.lanes::<3>(pixel, samples, seed, cancel, out)
+                self.lanes::<3>(pixel, samples, seed, cone, cancel, out)
             }
         }
     }
@@ -474,6 +479,7 @@ impl<'a> PathPacket<'a> {
         pixel: usize,
         samples: Range<u64>,
         seed: u64,
+        cone: Option<&ScanCone>,
         cancel: &AtomicBool,
         out: &mut impl FnMut(Splat),
     ) -> Result<()> {
@@ -493,13 +499,20 @@ impl<'a> PathPacket<'a> {
             if cancel.load(Ordering::Relaxed) {
                 return Err(NlosError::Interrupted);
             }
-            // ---- A new sample in every lane whose path has ended: its camera ray.
+            // ---- A new sample in every lane whose path has ended: its camera ray. (Samples
+            // whose first direction the pixel's cone turns down end here.)
             let mut fresh = 0;
             for l in 0..L {
-                if p.alive >> l & 1 == 0 && next < samples.end {
-                    p.key[l] = pixel_key.sample(next);
+                while p.alive >> l & 1 == 0 && next < samples.end {
+                    let key = pixel_key.sample(next);
                     next += 1;
-                    fresh |= 1 << l;
+                    // (Depth 0's BSDF numbers, as the lanes draw them below.)
+                    let u = || Vec2::new(lane_uniform(key, 5), lane_uniform(key, 6));
+                    if cone.is_none_or(|c| c.may_reach_square(u())) {
+                        p.key[l] = key;
+                        fresh |= 1 << l;
+                        break;
+                    }
                 }
             }
             if fresh != 0 {
