@@ -551,7 +551,11 @@ impl<'a> PathPacket<'a> {
                 }
                 for c in 0..C {
                     hit.albedo[0][c][l] = s.albedo[0][c];
-                    hit.albedo[1][c][l] = s.albedo[1][c];
+                }
+                if s.two_sided {
+                    for c in 0..C {
+                        hit.albedo[1][c][l] = s.albedo[1][c];
+                    }
                 }
                 (hit.plane[l], hit.emitter[l]) = (s.plane, s.emitter);
                 curved |= (s.curved as u32) << l;
@@ -602,7 +606,7 @@ impl<'a> PathPacket<'a> {
             if !self.emitters.is_empty() {
                 self.emission(&p, &hit, &prim, &t, &cos_front, out);
             }
-            let (mut rr, mut connects, mut last) = (0, 0, 0);
+            let mut rr = 0;
             for l in 0..L {
                 let depth = p.depth[l];
                 // Paths at their last vertex, and those that meet a surface from behind (a
@@ -611,10 +615,20 @@ impl<'a> PathPacket<'a> {
                     p.alive &= !(1 << l);
                 }
                 rr |= ((depth >= st.rr_depth) as u32) << l;
-                let kept =
-                    !dark && depth >= st.connect_from && st.connect_only.is_none_or(|f| depth == f);
-                connects |= (kept as u32) << l;
-                last |= (st.connect_only.is_some_and(|f| depth >= f) as u32) << l;
+            }
+            // The lanes whose vertex connects, and those that end after it.
+            let (mut connects, mut last) = (u32::MAX, 0);
+            if dark {
+                connects = 0;
+            } else if st.connect_from > 0 || st.connect_only.is_some() {
+                connects = 0;
+                for l in 0..L {
+                    let depth = p.depth[l];
+                    let kept =
+                        depth >= st.connect_from && st.connect_only.is_none_or(|f| depth == f);
+                    connects |= (kept as u32) << l;
+                    last |= (st.connect_only.is_some_and(|f| depth >= f) as u32) << l;
+                }
             }
             if p.alive == 0 {
                 continue;
