@@ -70,11 +70,18 @@ def bumpy_sphere_mesh(path: Path, n: int = 317) -> str:
     return str(nlos_rs.scenes.write_obj(path, v, np.array(f)))
 
 
-def hgs_off_copy(path: Path, out: Path) -> str:
-    """A copy of a mitransient scene file with hidden-geometry sampling off (its plugin default),
-    its relative file names made absolute so that it loads from `out`."""
+def hgs_off_copy(path: Path, out: Path, hgs: bool = False, z_bsdf: str | None = None) -> str:
+    """A copy of a mitransient scene file with hidden-geometry sampling off (its plugin default)
+    unless `hgs`, and the Z's BSDF (its mesh hidden_geometry_Z.ply) replaced by `z_bsdf` (XML) if
+    given, its relative file names made absolute so that it loads from `out`."""
     text = path.read_text()
-    text = text.replace('name="nlos_hidden_geometry_sampling" value="true"', 'name="nlos_hidden_geometry_sampling" value="false"')
+    if not hgs:
+        text = text.replace('name="nlos_hidden_geometry_sampling" value="true"', 'name="nlos_hidden_geometry_sampling" value="false"')
+    if z_bsdf is not None:
+        z_mesh = '<string name="filename" value="meshes/hidden_geometry_Z.ply"/>'
+        start = text.index(z_mesh)
+        end = text.index("</shape>", start)
+        text = text[:start] + z_mesh + z_bsdf + text[end:]
     text = text.replace('value="meshes/', f'value="{path.parent / "meshes"}/')
     out.write_text(text)
     return str(out)
@@ -156,6 +163,10 @@ def workloads(quick: bool):
         d["z"]["bsdf"] = {"type": "plastic", "diffuse_reflectance": {"type": "rgb", "value": [0.5, 0.5, 0.5]}}
         return d
 
+    def glass(d):
+        d["z"]["bsdf"] = {"type": "dielectric"}
+        return d
+
     def bsdf_sampling(d):
         d["integrator"]["nlos_hidden_geometry_sampling"] = False
         return d
@@ -224,6 +235,19 @@ def workloads(quick: bool):
             "type": "disk", "to_world": T().translate([0.2, 0.1, 0.8]).scale([0.3, 0.3, 0.3]).rotate([1, 0, 0], 180),
             "bsdf": {"type": "diffuse", "reflectance": 0.5}}), "mono"),
         "z_plastic_confocal": (lambda: plastic(z(4096, width=64, height=64, capture_type="confocal")), "mono"),
+        # The Z in smooth glass: behind one corner (its capture is zero: under hidden-geometry
+        # sampling every vertex past the first lies on the glass, which connects to nothing), and
+        # in mitransient's room, where light reaches the walls through it (hidden-geometry sampling
+        # on and off).
+        "z_glass": (lambda: glass(z(4096, width=64, height=64)), "mono"),
+        "mitransient_room_glass": (lambda: (hgs_off_copy(data / "mitransient" / "transient-nlos" / "nlos-z-room.xml",
+                                                         scenes.cache_dir() / "bench_nlos-z-room_glass.xml", hgs=True,
+                                                         z_bsdf='<bsdf type="dielectric"/>'),
+                                            max(1, 8192 // div)), "mono"),
+        "mitransient_room_glass_bsdf": (lambda: (hgs_off_copy(data / "mitransient" / "transient-nlos" / "nlos-z-room.xml",
+                                                              scenes.cache_dir() / "bench_nlos-z-room_glass_hgs_off.xml",
+                                                              z_bsdf='<bsdf type="dielectric"/>'),
+                                                 max(1, 8192 // div)), "mono"),
     }
 
 

@@ -214,6 +214,10 @@ pub struct NlosTracer<'a> {
     behind: Vec<bool>,
     /// Per shape: whether it is a flat sheet ([`Scene::is_flat`]), which cannot light itself.
     flat: Vec<bool>,
+    /// Every vertex after a path's first must lie on hidden geometry whose every BSDF is a delta
+    /// (hidden-geometry sampling in force at every depth, without the technique roulette), where
+    /// nothing is connected: no path adds anything past its first vertex, and each ends there.
+    first_only: bool,
     /// Laser irradiance (× scale).
     irradiance: Spectrum,
     /// The scan points, laser spots and cones.
@@ -279,6 +283,13 @@ impl<'a> NlosTracer<'a> {
                 .collect(),
             behind: bsdfs.iter().map(Bsdf::scatters_behind).collect(),
             flat: (0..scene.shapes.len()).map(|s| scene.is_flat(s)).collect(),
+            first_only: hidden.is_some_and(|hg| {
+                !settings.hgs_rroulette
+                    && settings.hgs_max_depth.is_none()
+                    && (0..bsdfs.len())
+                        .filter(|&s| hg.covers(s as u32))
+                        .all(|s| bsdfs[s].is_delta())
+            }),
             bsdfs,
             irradiance: nlos.laser.irradiance.spectrum(mono),
             camera: nlos.camera.as_ref(),
@@ -664,12 +675,15 @@ impl<'a> NlosTracer<'a> {
     }
 
     /// Whether a path ends after its vertex of loop depth `depth` is connected: no later vertex
-    /// can pass filter_bounces (stopping changes no result).
+    /// can pass filter_bounces, or none connects anything ([`Self::first_only`]); stopping
+    /// changes no result.
     #[inline(always)]
     fn ends_after_connecting(&self, depth: u32) -> bool {
-        self.settings
-            .filter_depth
-            .is_some_and(|f| depth + 1 + self.depth_offset() > f)
+        self.first_only
+            || self
+                .settings
+                .filter_depth
+                .is_some_and(|f| depth + 1 + self.depth_offset() > f)
     }
 
     /// The hidden geometry the next vertex at loop depth `depth` must lie on: with

@@ -118,3 +118,19 @@ def test_named_materials_and_bad_conductors():
         d["z"]["bsdf"] = bad
         with pytest.raises(nlos_rs.SceneError, match=key):
             nlos_rs.load_dict(d)
+
+
+@pytest.mark.parametrize("name", ["dielectric_bk7", "conductor_au", "thindielectric"])
+def test_delta_hidden_geometry_alone_adds_nothing(name):
+    """Under hidden-geometry sampling every vertex after a path's first lies on hidden geometry, and
+    a delta BSDF connects to nothing: where every hidden surface is a delta (the Z in glass, a
+    mirror), no path adds anything past its first vertex, which on the flat relay wall connects
+    to nothing either, and each path ends there (the capture is zero, as mitransient's is). A
+    diffuse floor beside the Z is connected to, through the Z or not."""
+    d = nlos_rs.scenes.z_nlos_1corner(width=4, height=4, spp=256)
+    d["z"]["bsdf"] = BSDFS[name]
+    steady, transient = nlos_rs.render(d, progress=False)
+    assert not steady.any() and not transient.any()
+    d["floor"] = {"type": "rectangle", "bsdf": {"type": "diffuse"},
+                  "to_world": nlos_rs.Transform4f().translate([0.0, -0.5, 1.0]).rotate([1, 0, 0], -90).scale(0.5)}
+    assert nlos_rs.render(d, progress=False)[1].sum() > 0
