@@ -554,8 +554,55 @@ fn lockstep_agrees_with_the_scalar_tracer() {
             true,
         ),
     ];
+    // An open pane of glass across the room: what is seen through it is in the glass's medium
+    // (its light is scaled by the refraction and slower by η).
+    let pane = std::env::temp_dir().join(format!("nlos_rs_los_pane_{}.obj", std::process::id()));
+    std::fs::write(
+        &pane,
+        "v 60 60 300\nv 500 60 300\nv 500 500 300\nv 60 500 300\nf 1 3 2\nf 1 4 3\n",
+    )
+    .expect("scratch file");
+    let mut cases = cases;
+    cases.push((
+        "a pane of glass across the room, mono",
+        cbox(6, |t| {
+            glazed(
+                t.replace(
+                    "</scene>",
+                    &format!(
+                        "<shape type=\"obj\"><string name=\"filename\" value=\"{}\"/>\
+                         <bsdf type=\"dielectric\"/></shape>\n</scene>",
+                        pane.display()
+                    ),
+                ),
+                1,
+            )
+        }),
+        true,
+    ));
+    cases.push((
+        "boxes of glass (bk7, and water tinted), rgb",
+        cbox(6, |t| {
+            glazed(
+                t.replace(
+                    "value=\"meshes/cbox_smallbox.obj\"/>\n        <ref id=\"gray\"/>",
+                    "value=\"meshes/cbox_smallbox.obj\"/><bsdf type=\"dielectric\"/>",
+                )
+                .replace(
+                    "value=\"meshes/cbox_largebox.obj\"/>\n        <ref id=\"gray\"/>",
+                    "value=\"meshes/cbox_largebox.obj\"/><bsdf type=\"dielectric\">\
+                 <string name=\"int_ior\" value=\"water\"/>\
+                 <rgb name=\"specular_transmittance\" value=\"0.9, 0.6, 0.4\"/>\
+                 <rgb name=\"specular_reflectance\" value=\"0.5, 0.8, 1.0\"/></bsdf>",
+                ),
+                2,
+            )
+        }),
+        false,
+    ));
     std::fs::remove_file(&obj).expect("scratch file");
     std::fs::remove_file(&tri).expect("scratch file");
+    std::fs::remove_file(&pane).expect("scratch file");
     for (name, scene, mono) in &cases {
         assert!(
             PathPacket::new(scene, los(scene), *mono).is_some() || !nlos_rs::simd::available(),
@@ -582,6 +629,12 @@ fn agrees_with_the_scalar_tracer(name: &str, scene: &Scene, mono: bool) {
         assert_eq!(one.transient, other.transient, "{name}: {threads} threads");
         assert_eq!(one.steady, other.steady, "{name}: {threads} threads");
     }
+}
+
+/// `text` with `count` dielectric BSDFs in it (a test's edit took).
+fn glazed(text: String, count: usize) -> String {
+    assert_eq!(text.matches("type=\"dielectric\"").count(), count);
+    text
 }
 
 /// mitransient's NLOS file `file` (a perspective camera looks at the relay wall) on an 8×8 film
@@ -653,6 +706,16 @@ fn nlos_lockstep_agrees_with_the_scalar_tracer() {
                     )
             }),
             false,
+        ),
+        (
+            "nlos-z-room.xml, the Z in glass, mono",
+            nlos_file("nlos-z-room.xml", |t| {
+                glazed(t.replace(
+                    "value=\"meshes/hidden_geometry_Z.ply\"/>\n\t\t<ref id=\"default-bsdf\" name=\"bsdf\"/>",
+                    "value=\"meshes/hidden_geometry_Z.ply\"/><bsdf type=\"dielectric\"/>",
+                ), 1)
+            }),
+            true,
         ),
         (
             "nlos-z-room.xml, one-sided, filter_bounces 3, mono",

@@ -62,10 +62,15 @@ struct Surface {
     n: [f32; 3],
     /// Unit geometric normal (for an area light's density in solid angle).
     ng: [f32; 3],
-    /// Diffuse reflectance of the front (the side the shading normal points to) and of the back.
+    /// Diffuse reflectance of the front (the side the shading normal points to) and of the back;
+    /// for a `dielectric`, its specular reflectance and transmittance.
     albedo: [[f32; 3]; 2],
     /// It scatters on both sides (`twosided`); else a path that meets its back ends there.
     two_sided: bool,
+    /// A smooth `dielectric` (glass) of relative index `eta` (inside / outside), instead of a
+    /// Lambertian surface.
+    dielectric: bool,
+    eta: f32,
     /// Plane key ([`PacketScene::plane`]).
     plane: f32,
     /// Index in `emitters` of the area light the triangle belongs to, or `u32::MAX`.
@@ -208,6 +213,8 @@ pub struct PathPacket<'a> {
     /// triangles only).
     smooth: Vec<Smooth>,
     mono: bool,
+    /// Some surface is glass.
+    glass: bool,
 }
 
 /// The triangles of a scene as lanes read them: the packet scene, each triangle's surface and
@@ -245,14 +252,21 @@ fn lane_surfaces(scene: &Scene, shape_emitter: &[u32], mono: bool) -> Option<Lan
                 (n, m, curved)
             }
         };
-        let (albedo, two_sided) = match &bsdfs[shape] {
-            Bsdf::Diffuse(d) => ([d.reflectance.to_array(); 2], false),
+        let (albedo, two_sided, eta) = match &bsdfs[shape] {
+            Bsdf::Diffuse(d) => ([d.reflectance.to_array(); 2], false, None),
             Bsdf::TwoSided(t) => match (&*t.front, &*t.back) {
-                (Bsdf::Diffuse(f), Bsdf::Diffuse(b)) => {
-                    ([f.reflectance.to_array(), b.reflectance.to_array()], true)
-                }
+                (Bsdf::Diffuse(f), Bsdf::Diffuse(b)) => (
+                    [f.reflectance.to_array(), b.reflectance.to_array()],
+                    true,
+                    None,
+                ),
                 _ => return None,
             },
+            // (No light sample is taken on glass, nor found on it.)
+            Bsdf::Dielectric(g) if emitter == u32::MAX => {
+                let tints = [g.specular_reflectance, g.specular_transmittance];
+                (tints.map(|t| t.to_array()), false, Some(g.eta))
+            }
             _ => return None,
         };
         let sign = scene.normal_sign(shape);
@@ -263,6 +277,8 @@ fn lane_surfaces(scene: &Scene, shape_emitter: &[u32], mono: bool) -> Option<Lan
             ng: ng.to_array(),
             albedo,
             two_sided,
+            dielectric: eta.is_some(),
+            eta: eta.unwrap_or(1.0),
             plane: geometry.plane(i as u32),
             emitter,
             curved,
@@ -349,6 +365,7 @@ impl<'a> PathPacket<'a> {
             .collect();
         *cdf.last_mut()? = 1.0;
         let st = &los.settings;
+        let glass = surfaces.iter().any(|s| s.dielectric);
         Some(Self {
             camera: &los.camera,
             rules: Rules {
@@ -373,6 +390,7 @@ impl<'a> PathPacket<'a> {
             emitters,
             smooth,
             mono,
+            glass,
         })
     }
 
@@ -422,6 +440,7 @@ impl<'a> PathPacket<'a> {
             last_leg: spot.last_leg,
             lit: radiance != Spectrum::ZERO && spot.incident != Spectrum::ZERO,
         };
+        let glass = surfaces.iter().any(|s| s.dielectric);
         Some(Self {
             camera,
             rules: Rules {
@@ -444,6 +463,7 @@ impl<'a> PathPacket<'a> {
             emitters: Vec::new(),
             smooth,
             mono,
+            glass,
         })
     }
 
@@ -464,17 +484,19 @@ impl<'a> PathPacket<'a> {
         // SAFETY: a `PathPacket` is made only where the CPU runs `F8`'s vectors (its
         // `PacketScene`).
         unsafe {
-            if self.mono {
-                self.lanes::<1>(pixel, samples, seed, cone, cancel, out)
-            } else {
-                self.lanes::<3>(pixel, samples, seed, cone, cancel, out)
+            match (self.mono, self.glass) {
+                (true, false) => self.lanes::<1, false>(pixel, samples, seed, cone, cancel, out),
+                (false, false) => self.lanes::<3, false>(pixel, samples, seed, cone, cancel, out),
+                (true, true) => self.lanes::<1, true>(pixel, samples, seed, cone, cancel, out),
+                (false, true) => self.lanes::<3, true>(pixel, samples, seed, cone, cancel, out),
             }
         }
     }
 
-    /// The lockstep loop over `C` colour channels (1 mono, 3 rgb).
+    /// The lockstep loop over `C` colour channels (1 mono, 3 rgb); what glass needs is compiled
+    /// in where the scene has some (`GLASS`).
     #[cfg_attr(target_arch = "x86_64", target_feature(enable = "avx2,fma"))]
-    unsafe fn lanes<const C: usize>(
+    unsafe fn lanes<const C: usize, const GLASS: bool>(
         &self,
         pixel: usize,
         samples: Range<u64>,
@@ -539,7 +561,8 @@ impl<'a> PathPacket<'a> {
             let (t, prim) = self.geometry.closest(&p.ray);
             // What each lane hit, gathered into lanes.
             let mut hit = Lanes::<C>::default();
-            let (mut curved, mut two_sided) = (0, 0);
+            let (mut curved, mut two_sided, mut glass) = (0, 0, 0);
+            let mut ior = [1.0; L];
             for l in 0..L {
                 if prim[l] == u32::MAX {
                     p.alive &= !(1 << l);
@@ -552,14 +575,18 @@ impl<'a> PathPacket<'a> {
                 for c in 0..C {
                     hit.albedo[0][c][l] = s.albedo[0][c];
                 }
-                if s.two_sided {
+                if s.two_sided || s.dielectric {
                     for c in 0..C {
                         hit.albedo[1][c][l] = s.albedo[1][c];
                     }
                 }
+                if GLASS {
+                    ior[l] = s.eta;
+                }
                 (hit.plane[l], hit.emitter[l]) = (s.plane, s.emitter);
                 curved |= (s.curved as u32) << l;
                 two_sided |= (s.two_sided as u32) << l;
+                glass |= ((GLASS && s.dielectric) as u32) << l;
             }
             let tv = F8::load(&t);
             let o = p.ray.o.each_ref().map(F8::load);
@@ -593,25 +620,29 @@ impl<'a> PathPacket<'a> {
                     albedo[c] = F8::select(back, F8::load(&hit.albedo[1][c]), albedo[c]);
                 }
             }
-            let (cos_front, cos_i) = (cos_front.store(), cos_i.store());
+            let (front, cos_i) = (cos_front.store(), cos_i.store());
             for l in 0..L {
+                // (Light is slower by η inside a refracting medium.)
                 p.opl[l] += match (p.depth[l], st.first_leg) {
                     (0, FirstLeg::Skipped) => 0.0,
                     (0, FirstLeg::FromNearClip) => (t[l] - p.ray.tmin[l]) as f64,
+                    _ if GLASS => t[l] as f64 * p.eta[l] as f64,
                     _ => t[l] as f64,
                 };
             }
             // ---- Emission found by the camera ray or by BSDF sampling (MIS against the light
             // sample that could have found it; a camera ray's is taken whole).
             if !self.emitters.is_empty() {
-                self.emission(&p, &hit, &prim, &t, &cos_front, out);
+                self.emission(&p, &hit, &prim, &t, &front, out);
             }
             let mut rr = 0;
             for l in 0..L {
                 let depth = p.depth[l];
                 // Paths at their last vertex, and those that meet a surface from behind (a
-                // one-sided BSDF neither reflects nor connects there), end.
-                if depth.saturating_add(1) >= st.max_depth || !(cos_i[l] > 0.0) {
+                // one-sided BSDF neither reflects nor connects there; glass has two sides), end.
+                if depth.saturating_add(1) >= st.max_depth
+                    || (glass >> l & 1 == 0 && !(cos_i[l] > 0.0))
+                {
                     p.alive &= !(1 << l);
                 }
                 rr |= ((depth >= st.rr_depth) as u32) << l;
@@ -665,7 +696,9 @@ impl<'a> PathPacket<'a> {
             let cos_l = b(0.0) - dot(&light.n, &w);
             let cos_o = dot(&n, &w);
             let bsdf_pdf = cos_o * b(FRAC_1_PI);
-            let mut lights = alive & M8::from_bits(connects) & cos_l.gt(b(0.0)) & cos_o.gt(b(0.0));
+            // (Glass, a delta, connects to nothing.)
+            let mut lights =
+                alive & M8::from_bits(connects & !glass) & cos_l.gt(b(0.0)) & cos_o.gt(b(0.0));
             let weight = if spot.is_some() {
                 // The spot: f·cos_o·cos_l / r² (a vertex on the spot's own plane sees it at a
                 // grazing angle, as rounding makes it: nothing).
@@ -697,7 +730,8 @@ impl<'a> PathPacket<'a> {
                     for c in 0..C {
                         v[c] = lit[c][l];
                     }
-                    out(splat(p.opl[l] + shadow.tmax[l] as f64 + last_leg, v));
+                    let leg = shadow.tmax[l] * if GLASS { p.eta[l] } else { 1.0 };
+                    out(splat(p.opl[l] + leg as f64 + last_leg, v));
                 }
             }
             // Paths whose only kept connection was this vertex's end.
@@ -716,8 +750,30 @@ impl<'a> PathPacket<'a> {
                 p.ray.o[a] = x[a].store();
             }
             p.bsdf_pdf = (dz * b(FRAC_1_PI)).store();
-            let beta: [F8; C] = std::array::from_fn(|c| beta[c] * albedo[c]);
-            let m = beta.iter().fold(b(0.0), |m, &x| x.max(m));
+            // The sample's weight: the albedo, or on glass (reflection or refraction, chosen by
+            // the Fresnel probability with the BSDF's first number) its tint and scale.
+            let mut weight = albedo;
+            p.delta = glass;
+            if GLASS && glass & p.alive != 0 {
+                let g = M8::from_bits(glass);
+                let s = dielectric_sample(n, d, cos_front, F8::load(&ior), F8::load(&v1));
+                for a in 0..3 {
+                    p.ray.d[a] = F8::select(g, s.d[a], F8::load(&p.ray.d[a])).store();
+                }
+                for c in 0..C {
+                    let tint = F8::select(s.reflected, albedo[c], F8::load(&hit.albedo[1][c]));
+                    weight[c] = F8::select(g, tint * s.scale, weight[c]);
+                }
+                p.eta = (F8::load(&p.eta) * F8::select(g, s.eta, b(1.0))).store();
+            }
+            let beta: [F8; C] = std::array::from_fn(|c| beta[c] * weight[c]);
+            // Russian roulette weighs β by η² (the radiance scaling of refraction does not end a
+            // path inside glass).
+            let mut m = beta.iter().fold(b(0.0), |m, &x| x.max(m));
+            if GLASS {
+                let eta = F8::load(&p.eta);
+                m = m * (eta * eta);
+            }
             let rr = M8::from_bits(rr);
             let q = F8::select(rr, m.min(b(0.95)), b(1.0));
             let goes_on = m.gt(b(0.0)) & (!rr | u_rr.lt(q));
@@ -808,7 +864,7 @@ impl PathPacket<'_> {
                 continue;
             }
             let e = &self.emitters[k as usize];
-            let w = if p.depth[l] == 0 {
+            let w = if p.depth[l] == 0 || p.delta >> l & 1 != 0 {
                 1.0
             } else {
                 // The density of the light sample that could have found this point: its
@@ -881,6 +937,10 @@ struct Paths<const C: usize> {
     opl: [f64; L],
     /// Density with which BSDF sampling chose the ray (for MIS on the emission it finds).
     bsdf_pdf: F,
+    /// A bit per lane whose ray a delta (glass) chose: the emission it finds is taken whole.
+    delta: u32,
+    /// Relative index of refraction of the medium the lane's path is in.
+    eta: F,
 }
 
 impl<const C: usize> Default for Paths<C> {
@@ -896,6 +956,8 @@ impl<const C: usize> Default for Paths<C> {
             beta: [[0.0; L]; C],
             opl: [0.0; L],
             bsdf_pdf: [0.0; L],
+            delta: 0,
+            eta: [1.0; L],
         }
     }
 }
@@ -923,6 +985,7 @@ impl<const C: usize> Paths<C> {
             }
             self.opl[l] = 0.0;
             self.bsdf_pdf[l] = 0.0;
+            self.eta[l] = 1.0;
         }
     }
 
@@ -977,6 +1040,55 @@ fn interpolated_normals(smooth: &[Smooth], prim: &U, lanes: u32, x: &[F8; 3]) ->
 fn aff(m: &[F; 4], x: &[F8; 3], w: F8) -> F8 {
     let a = [F8::load(&m[0]), F8::load(&m[1]), F8::load(&m[2])];
     a[2].mul_add(x[2], a[1].mul_add(x[1], a[0].mul_add(x[0], w)))
+}
+
+/// A smooth dielectric's sample, lane by lane.
+struct DielectricSample {
+    /// The new direction.
+    d: [F8; 3],
+    /// Reflected (else refracted).
+    reflected: M8,
+    /// The weight's scale beyond the tint: 1 reflected, (η_t/η_i)⁻² refracted.
+    scale: F8,
+    /// The factor on the path's relative index: 1 reflected, η_it refracted.
+    eta: F8,
+}
+
+/// Reflect or refract the rays `d` at glass of relative index `ior` (inside / outside) whose
+/// normal is `n`, met at the cosine `cos_i` = n · (−d) (negative from inside), with the Fresnel
+/// probability, reflecting where the number `u` ≤ F — [`crate::bsdf::Dielectric`]'s sample and
+/// [`crate::bsdf::fresnel::dielectric`]'s terms, lane by lane.
+#[inline(always)]
+fn dielectric_sample(n: [F8; 3], d: [F8; 3], cos_i: F8, ior: F8, u: F8) -> DielectricSample {
+    let b = F8::splat;
+    let outside = cos_i.ge(b(0.0));
+    let (eta_it, eta_ti) = (
+        F8::select(outside, ior, b(1.0) / ior),
+        F8::select(outside, b(1.0) / ior, ior),
+    );
+    let cos_t2 = b(1.0) - (b(1.0) - cos_i * cos_i) * eta_ti * eta_ti;
+    let (ci, ct) = (cos_i.abs(), cos_t2.max(b(0.0)).sqrt());
+    let a_s = (ci - eta_it * ct) / (ci + eta_it * ct);
+    let a_p = (ct - eta_it * ci) / (ct + eta_it * ci);
+    let f = b(0.5) * (a_s * a_s + a_p * a_p);
+    // No interface (η = 1) reflects nothing; a grazing ray (cos 0) is reflected whole.
+    let f = F8::select(ior.eq(b(1.0)), b(0.0), F8::select(ci.eq(b(0.0)), b(1.0), f));
+    let reflected = u.le(f);
+    let cos_t = F8::select(outside, b(0.0) - ct, ct);
+    let mut dir = [b(0.0); 3];
+    for a in 0..3 {
+        // wi = −d: the mirror direction 2 cos_i n − wi, and the refracted
+        // −η_ti (wi − cos_i n) + cos_t n.
+        let mirror = b(2.0) * cos_i * n[a] + d[a];
+        let refracted = eta_ti * (d[a] + cos_i * n[a]) + cos_t * n[a];
+        dir[a] = F8::select(reflected, mirror, refracted);
+    }
+    DielectricSample {
+        d: dir,
+        reflected,
+        scale: F8::select(reflected, b(1.0), eta_ti * eta_ti),
+        eta: F8::select(reflected, b(1.0), eta_it),
+    }
 }
 
 /// a · b over the three axes, lane by lane.
