@@ -633,7 +633,7 @@ impl<'a> PathPacket<'a> {
             // ---- Emission found by the camera ray or by BSDF sampling (MIS against the light
             // sample that could have found it; a camera ray's is taken whole).
             if !self.emitters.is_empty() {
-                self.emission(&p, &hit, &prim, &t, &front, out);
+                self.emission::<C, GLASS>(&p, &hit, &prim, &t, &front, out);
             }
             let mut rr = 0;
             for l in 0..L {
@@ -753,7 +753,9 @@ impl<'a> PathPacket<'a> {
             // The sample's weight: the albedo, or on glass (reflection or refraction, chosen by
             // the Fresnel probability with the BSDF's first number) its tint and scale.
             let mut weight = albedo;
-            p.delta = glass;
+            if GLASS {
+                p.delta = glass;
+            }
             if GLASS && glass & p.alive != 0 {
                 let g = M8::from_bits(glass);
                 let s = dielectric_sample(n, d, cos_front, F8::load(&ior), F8::load(&v1));
@@ -845,7 +847,7 @@ impl PathPacket<'_> {
     /// `discard_direct_light`), BSDF sampling's weighted against the light sample that could have
     /// found it.
     #[inline(always)]
-    fn emission<const C: usize>(
+    fn emission<const C: usize, const GLASS: bool>(
         &self,
         p: &Paths<C>,
         hit: &Lanes<C>,
@@ -864,7 +866,7 @@ impl PathPacket<'_> {
                 continue;
             }
             let e = &self.emitters[k as usize];
-            let w = if p.depth[l] == 0 || p.delta >> l & 1 != 0 {
+            let w = if p.depth[l] == 0 || (GLASS && p.delta >> l & 1 != 0) {
                 1.0
             } else {
                 // The density of the light sample that could have found this point: its
