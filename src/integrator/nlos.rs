@@ -4,6 +4,9 @@
 //! `transient_nlos_path_rs` the hidden-geometry step is Hidden Geometry Rejection Sampling
 //! ([`super::hgrs`]).
 //!
+//! With a camera and hidden-geometry sampling off, small scenes are traced eight paths at a time
+//! in lockstep lanes instead ([`super::path_packet`]).
+//!
 //! Where mitransient 1.3.1 is wrong (mitransient-model §5) this integrator is physically right
 //! instead: hidden-geometry sampling tests visibility, the 50/50 technique choice does not double
 //! the estimate, and the capture's time origin ignores the shutter. See docs/compatibility.md.

@@ -1,18 +1,23 @@
-//! `transient_path` traced eight paths at a time, in lockstep lanes: the line-of-sight path tracer
-//! of [`super::path`] for the scenes it is most run on — a few dozen flat triangles, every
-//! surface Lambertian (`diffuse`), lit by area lights (a Cornell box). Each lane is one sample of
-//! the same pixel; the lanes advance a bounce at a time together, and a lane whose path has ended
-//! takes the pixel's next sample at once, so the lanes stay full until the pixel's last samples.
-//! The rays of the lanes are traced together, eight to a vector ([`crate::geometry::ray_packet`]),
-//! and the steps between them are branch-free arithmetic on eight lanes ([`crate::simd::F8`], AVX2
-//! picked at run time): light sampling, cosine-weighted BSDF sampling, multiple importance sampling
-//! and Russian roulette, and the camera rays of the lanes that begin a sample. Only the film's
-//! splats and the gathers of what a lane hit (its normal, albedo, plane and emitter) and of the
-//! light part it chose (where the lights are more than one) are made lane by lane.
+//! Paths traced eight at a time, in lockstep lanes, for the scenes they are most run on — a few
+//! dozen flat triangles, every surface Lambertian (`diffuse`, or a `twosided` pair) or smooth glass
+//! (`dielectric`): the line-of-sight path tracer of [`super::path`] lit by area lights (a Cornell
+//! box), and the NLOS tracer of [`super::nlos`] where a camera finds each path's first vertex and
+//! laser sampling connects every vertex to the laser spot, hidden-geometry sampling off
+//! (mitransient's camera files). Each lane is one sample of the same pixel; the lanes advance a
+//! bounce at a time together, and a lane whose path has ended takes the pixel's next sample at
+//! once, so the lanes stay full until the pixel's last samples. The rays of the lanes are traced
+//! together, eight to a vector ([`crate::geometry::ray_packet`]), and the steps between them are
+//! branch-free arithmetic on eight lanes ([`crate::simd::F8`], AVX2 picked at run time): light
+//! sampling (a light part, or the laser spot as a part of one point), cosine-weighted BSDF sampling
+//! and the glass's Fresnel choice, multiple importance sampling and Russian roulette, and the camera
+//! rays of the lanes that begin a sample. Only the film's splats and the gathers of what a lane hit
+//! (its normal, albedo, plane and emitter) and of the light part it chose (where the lights are
+//! more than one) are made lane by lane.
 //!
-//! The estimator is [`super::path`]'s (and mitransient's `transient_path`): next-event estimation
-//! and BSDF sampling under the power heuristic, emission splatted at the optical path length, the
-//! same clipping, depth, Russian-roulette and time-origin settings. What differs:
+//! The estimators are [`super::path`]'s (mitransient's `transient_path`: next-event estimation and
+//! BSDF sampling under the power heuristic, emission splatted at the optical path length) and
+//! [`super::nlos`]'s (laser sampling, the same depth filters), with the same clipping, depth,
+//! Russian-roulette and time-origin settings. What differs:
 //! - **Random numbers** are counter-based ([`crate::sampling::lane_uniform`]): the d-th number of a
 //!   sample is a hash of its key and d, so a lane's numbers do not depend on the other lanes.
 //! - **Rays start on the surface** and skip the triangles of its plane, and a shadow ray those of
@@ -20,7 +25,7 @@
 //!
 //! Results are the same whatever the thread count: a pixel's samples are traced in one task, in
 //! the same lanes, in the same order. Renders that keep per-sample values (variance, adaptive
-//! sampling) or draw from a low-discrepancy sequence use [`super::path`].
+//! sampling), draw from a low-discrepancy sequence or share light subpaths use the scalar tracers.
 
 // Loops over the lanes (and channels, axes) index several arrays by one lane at once.
 #![allow(clippy::needless_range_loop)]
