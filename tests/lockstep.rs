@@ -612,14 +612,14 @@ fn lockstep_agrees_with_the_scalar_tracer() {
     }
 }
 
-/// Assert that lockstep renders of `scene` agree with the scalar tracer's (16 seeds each, every
-/// pixel and channel and the time profile) and are bit-identical at 1, 2 and 3 threads.
+/// Assert that lockstep renders of `scene` agree with the scalar tracer's (16 seeds of 1,024
+/// samples each; every pixel and channel and the time profile) and are bit-identical at 1, 2 and 3 threads.
 fn agrees_with_the_scalar_tracer(name: &str, scene: &Scene, mono: bool) {
     let lockstep: Vec<_> = (0..16)
-        .map(|s| features(&run(scene, mono, 256, s, false, 2)))
+        .map(|s| features(&run(scene, mono, 1024, s, false, 2)))
         .collect();
     let scalar: Vec<_> = (100..116)
-        .map(|s| features(&run(scene, mono, 256, s, true, 2)))
+        .map(|s| features(&run(scene, mono, 1024, s, true, 2)))
         .collect();
     let n = agree(name, &lockstep, &scalar);
     println!("{name}: {n} features agree");
