@@ -227,8 +227,9 @@ pub struct PathPacket<'a> {
 type LaneSurfaces = (PacketScene, Vec<Surface>, Vec<Smooth>);
 
 /// The lockstep form of `scene`'s triangles, if its every primitive is a triangle (at most
-/// [`crate::geometry::ray_packet::MAX_TRIANGLES`]) and its every BSDF `diffuse` or a `twosided`
-/// pair of them; `shape_emitter`: per shape, the index of its area light or `u32::MAX`.
+/// [`crate::geometry::ray_packet::MAX_TRIANGLES`]) and its every BSDF `diffuse`, a `twosided`
+/// pair of them or a smooth `dielectric` (not emitting); `shape_emitter`: per shape, the index of
+/// its area light or `u32::MAX`.
 fn lane_surfaces(scene: &Scene, shape_emitter: &[u32], mono: bool) -> Option<LaneSurfaces> {
     let geometry = PacketScene::new(&scene.prims, |i, j| {
         scene.prim_shape[i] == scene.prim_shape[j]
@@ -402,12 +403,14 @@ impl<'a> PathPacket<'a> {
     /// The lockstep render of the NLOS `scene` (`transient_nlos_path`) whose laser spots are
     /// `spots`, if a perspective camera finds its paths' first vertices, laser sampling connects
     /// them to the one spot of a single capture, Lambertian, with hidden-geometry sampling off,
-    /// and its triangles allow ([`lane_surfaces`]); else `None` (the scalar tracer renders it). Its paths are [`super::nlos`]'s: the same connections, depths and roulette.
+    /// and its triangles allow ([`lane_surfaces`]); else `None` (the scalar tracer renders it).
+    /// Its paths are [`super::nlos`]'s: the same connections, depths and roulette.
     pub fn nlos(scene: &Scene, nlos: &'a Nlos, spots: &[Spot], mono: bool) -> Option<Self> {
         let st = &nlos.settings;
         let camera = nlos.camera.as_ref()?;
         // A path's vertex at loop depth d makes a contribution of depth d + 2 (the spot and the
-        // laser are two more vertices); `filter_bounces` keeps one depth, ≥ 2.
+        // laser are two more vertices); `filter_bounces` keeps one depth (below 2, none: the
+        // scalar tracer renders it).
         let connect_only = match st.filter_depth {
             Some(f) => Some(f.checked_sub(2)?),
             None => None,
