@@ -70,8 +70,8 @@ def bumpy_sphere_mesh(path: Path, n: int = 317) -> str:
     return str(nlos_rs.scenes.write_obj(path, v, np.array(f)))
 
 
-def hgs_off_copy(path: Path, out: Path, hgs: bool = False, z_bsdf: str | None = None) -> str:
-    """A copy of a mitransient scene file with hidden-geometry sampling off (its plugin default)
+def scene_copy(path: Path, out: Path, hgs: bool = False, z_bsdf: str | None = None) -> str:
+    """A copy of a mitransient scene file, with hidden-geometry sampling off (its plugin default)
     unless `hgs`, and the Z's BSDF (its mesh hidden_geometry_Z.ply) replaced by `z_bsdf` (XML) if
     given, its relative file names made absolute so that it loads from `out`."""
     text = path.read_text()
@@ -215,7 +215,7 @@ def workloads(quick: bool):
         "z_confocal_bsdf": (lambda: bsdf_sampling(z(4096, width=64, height=64, capture_type="confocal")), "mono"),
         "mesh_200k_bsdf": (lambda: bsdf_sampling(big()), "mono"),
         "mesh_200k_confocal_bsdf": (lambda: bsdf_sampling(big(capture_type="confocal")), "mono"),
-        "mitransient_camera_file_bsdf": (lambda: (hgs_off_copy(data / "mitransient" / "transient-nlos" / "nlos-z-simple.xml",
+        "mitransient_camera_file_bsdf": (lambda: (scene_copy(data / "mitransient" / "transient-nlos" / "nlos-z-simple.xml",
                                                                scenes.cache_dir() / "bench_nlos-z-simple_hgs_off.xml"),
                                                   max(1, 4096 // div)), "mono"),
         # tal's own examples (tal_example): the bunny, confocal and exhaustive, and the plane.
@@ -226,7 +226,7 @@ def workloads(quick: bool):
                                       "mono"),
         # mitransient's room with hidden-geometry sampling off: the walls surround the Z, so every
         # direction from the relay wall meets something and no cone turns a path down.
-        "mitransient_room_file_bsdf": (lambda: (hgs_off_copy(data / "mitransient" / "transient-nlos" / "nlos-z-room.xml",
+        "mitransient_room_file_bsdf": (lambda: (scene_copy(data / "mitransient" / "transient-nlos" / "nlos-z-room.xml",
                                                              scenes.cache_dir() / "bench_nlos-z-room_hgs_off.xml"),
                                                 max(1, 8192 // div)), "mono"),
         # Other hidden objects: a disk of radius 0.3 m facing the wall at 0.8 m, albedo 0.5 (a
@@ -240,11 +240,11 @@ def workloads(quick: bool):
         # in mitransient's room, where light reaches the walls through it (hidden-geometry sampling
         # on and off).
         "z_glass": (lambda: glass(z(4096, width=64, height=64)), "mono"),
-        "mitransient_room_glass": (lambda: (hgs_off_copy(data / "mitransient" / "transient-nlos" / "nlos-z-room.xml",
+        "mitransient_room_glass": (lambda: (scene_copy(data / "mitransient" / "transient-nlos" / "nlos-z-room.xml",
                                                          scenes.cache_dir() / "bench_nlos-z-room_glass.xml", hgs=True,
                                                          z_bsdf='<bsdf type="dielectric"/>'),
                                             max(1, 8192 // div)), "mono"),
-        "mitransient_room_glass_bsdf": (lambda: (hgs_off_copy(data / "mitransient" / "transient-nlos" / "nlos-z-room.xml",
+        "mitransient_room_glass_bsdf": (lambda: (scene_copy(data / "mitransient" / "transient-nlos" / "nlos-z-room.xml",
                                                               scenes.cache_dir() / "bench_nlos-z-room_glass_hgs_off.xml",
                                                               z_bsdf='<bsdf type="dielectric"/>'),
                                                  max(1, 8192 // div)), "mono"),

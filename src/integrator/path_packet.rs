@@ -54,8 +54,14 @@ use std::ops::Range;
 use std::sync::atomic::{AtomicBool, Ordering};
 
 /// Random numbers a bounce draws: light choice, light point (2), BSDF direction (2), Russian
-/// roulette; the camera ray's jitter takes the first two of depth 0's.
+/// roulette; the camera ray's jitter takes the first two of depth 0's. Their slots:
 const DIMS_PER_BOUNCE: u32 = 8;
+const JITTER: u32 = 0;
+const LIGHT_PICK: u32 = 2;
+const LIGHT_POINT: u32 = 3;
+/// (Glass takes the first for its choice of reflection or refraction.)
+const BSDF_DIRECTION: u32 = 5;
+const ROULETTE: u32 = 7;
 
 type F = [f32; L];
 type U = [u32; L];
@@ -536,8 +542,9 @@ impl<'a> PathPacket<'a> {
                 while p.alive >> l & 1 == 0 && next < samples.end {
                     let key = pixel_key.sample(next);
                     next += 1;
-                    // (Depth 0's BSDF numbers, as the lanes draw them below.)
-                    let u = || Vec2::new(lane_uniform(key, 5), lane_uniform(key, 6));
+                    // (Depth 0's BSDF numbers.)
+                    let (i, j) = (BSDF_DIRECTION, BSDF_DIRECTION + 1);
+                    let u = || Vec2::new(lane_uniform(key, i), lane_uniform(key, j));
                     if cone.is_none_or(|c| c.may_reach_square(u())) {
                         p.key[l] = key;
                         fresh |= 1 << l;
@@ -547,7 +554,7 @@ impl<'a> PathPacket<'a> {
             }
             if fresh != 0 {
                 let depth0 = [0; L];
-                let (jx, jy) = (p.uniforms(depth0, 0), p.uniforms(depth0, 1));
+                let (jx, jy) = (p.uniforms(depth0, JITTER), p.uniforms(depth0, JITTER + 1));
                 let (d, tmin, tmax) = self.camera.pixel_ray_parts(
                     pixel,
                     self.width,
@@ -681,11 +688,18 @@ impl<'a> PathPacket<'a> {
             // ---- Next-event estimation: a light part (or the laser spot), a point on it, its
             // contribution (weighted against BSDF sampling where that could find it too), and a
             // shadow ray for the lanes it lights.
+            let sampled;
             let (light, last_leg) = match &spot {
-                Some((s, last_leg)) => (*s, *last_leg),
-                None => (self.light_lanes::<C>(&p, dim), 0.0),
+                Some((s, last_leg)) => (s, *last_leg),
+                None => {
+                    sampled = self.light_lanes::<C>(&p, dim);
+                    (&sampled, 0.0)
+                }
             };
-            let (u1, u2) = (F8::load(&p.uniforms(dim, 3)), F8::load(&p.uniforms(dim, 4)));
+            let (u1, u2) = (
+                F8::load(&p.uniforms(dim, LIGHT_POINT)),
+                F8::load(&p.uniforms(dim, LIGHT_POINT + 1)),
+            );
             let (b1, b2) = square_to_triangle(u1, u2);
             let (b1, b2) = (
                 F8::select(light.quad, u1, b1),
@@ -746,8 +760,11 @@ impl<'a> PathPacket<'a> {
             p.alive &= !last;
             // ---- BSDF sampling (cosine-weighted: the weight is the albedo), then Russian
             // roulette as Mitsuba plays it.
-            let (v1, v2) = (p.uniforms(dim, 5), p.uniforms(dim, 6));
-            let u_rr = F8::load(&p.uniforms(dim, 7));
+            let (v1, v2) = (
+                p.uniforms(dim, BSDF_DIRECTION),
+                p.uniforms(dim, BSDF_DIRECTION + 1),
+            );
+            let u_rr = F8::load(&p.uniforms(dim, ROULETTE));
             let (dx, dy) = square_to_disk(F8::load(&v1), F8::load(&v2));
             let dz = (b(1.0) - dx * dx - dy * dy).max(b(0.0)).sqrt();
             // About the tangent frame of each lane's normal, as `Frame::new` makes it.
@@ -814,7 +831,7 @@ impl PathPacket<'_> {
         if let [part] = &parts[..] {
             return part_lanes(part);
         }
-        let pick = F8::load(&p.uniforms(dim, 2));
+        let pick = F8::load(&p.uniforms(dim, LIGHT_PICK));
         let chosen = (cdf[..parts.len() - 1].iter())
             .fold(b(0.0), |i, &c| {
                 i + F8::select(b(c).le(pick), b(1.0), b(0.0))
