@@ -210,6 +210,12 @@ def workloads(quick: bool):
                                                   max(1, 256 // div), {"res": 64}), "mono"),
         "mitransient_cbox_freq_file": (lambda: (str(data / "mitransient" / "cornell-box" / "cbox_diffuse_freq.xml"),
                                                 max(1, 256 // div), {"res": 64}), "mono"),
+        # The rest of mitransient's line-of-sight examples: the Cornell box with two water boxes
+        # (`cbox_mirror.xml`, smooth dielectrics) and the floor under an angular area light.
+        "mitransient_cbox_mirror_file": (lambda: (str(data / "mitransient" / "cornell-box" / "cbox_mirror.xml"),
+                                                  max(1, 256 // div), {"res": 64}), "mono"),
+        "mitransient_angular_1light_file": (lambda: (str(data / "mitransient" / "angulararea-emitter" / "angular_1light.xml"),
+                                                     max(1, 256 // div), {"res": 64}), "mono"),
         "tal_confocal_file": (lambda: (str(data / "tal021" / "confocal.xml"), max(1, (1 << 19) // div)), "mono"),
         # Hidden-geometry sampling off, the default of mitransient's plugin and of tal's generator.
         "z_confocal_bsdf": (lambda: bsdf_sampling(z(4096, width=64, height=64, capture_type="confocal")), "mono"),

@@ -553,6 +553,17 @@ fn lockstep_agrees_with_the_scalar_tracer() {
             }),
             true,
         ),
+        (
+            "the luminaire an angulararea light (full within 20 degrees, none beyond 35), mono",
+            cbox(6, |t| {
+                t.replace(
+                    "<emitter type=\"area\">",
+                    "<emitter type=\"angulararea\"><float name=\"cutoff_angle\" value=\"35\"/>\
+                     <float name=\"beam_width\" value=\"20\"/>",
+                )
+            }),
+            true,
+        ),
     ];
     // An open pane of glass across the room: what is seen through it is in the glass's medium
     // (its light is scaled by the refraction and slower by η).

@@ -35,7 +35,7 @@ use super::path::mis;
 use super::scan_cone::ScanCone;
 use crate::bsdf::Bsdf;
 use crate::capture::Spot;
-use crate::emitter::Light;
+use crate::emitter::{AngularFalloff, Light};
 use crate::error::{NlosError, Result};
 use crate::geometry::Prim;
 use crate::geometry::ray_packet::{LANES as L, NO_PLANE, Packet, PacketScene, barycentric_maps};
@@ -142,14 +142,17 @@ struct LightLanes<const C: usize> {
     plane: F8,
     radiance: [F8; C],
     area_pdf: F8,
+    /// Index of the part's emitter in `PathPacket::emitters` (`u32::MAX` for the laser spot).
+    emitter: U,
 }
 
-/// An area light: its radiance and the area density of its points under next-event estimation,
-/// 1 / (lights · area).
+/// An area light: its radiance, the area density of its points under next-event estimation,
+/// 1 / (lights · area), and `angulararea`'s falloff with the angle from its normal.
 #[derive(Clone, Copy, Debug)]
 struct Emitter {
     radiance: [f32; 3],
     area_pdf: f32,
+    falloff: Option<AngularFalloff>,
 }
 
 /// How the lanes' paths are counted and cut: `transient_path`'s or `transient_nlos_path`'s
@@ -220,6 +223,8 @@ pub struct PathPacket<'a> {
     target: Target,
     /// The area lights (none in an NLOS capture).
     emitters: Vec<Emitter>,
+    /// Some area light is an `angulararea` one.
+    falloff: bool,
     /// Per triangle, its vertex normals as lanes interpolate them (read for [`Surface::curved`]
     /// triangles only).
     smooth: Vec<Smooth>,
@@ -301,8 +306,8 @@ fn lane_surfaces(scene: &Scene, shape_emitter: &[u32], mono: bool) -> Option<Lan
 
 impl<'a> PathPacket<'a> {
     /// The lockstep render of the line-of-sight `scene`, if its triangles allow
-    /// ([`lane_surfaces`]) and its lights are area lights of uniform radiance on flat-shaded
-    /// triangles; else `None` (the scalar path tracer renders it).
+    /// ([`lane_surfaces`]) and its lights are area lights (`area` or `angulararea`) of uniform
+    /// radiance on flat-shaded triangles; else `None` (the scalar path tracer renders it).
     pub fn new(scene: &Scene, los: &'a Los, mono: bool) -> Option<Self> {
         if los.lights.is_empty() {
             return None;
@@ -313,7 +318,7 @@ impl<'a> PathPacket<'a> {
             let Light::Area {
                 shape,
                 radiance,
-                falloff: None,
+                falloff,
             } = *light
             else {
                 return None;
@@ -329,6 +334,7 @@ impl<'a> PathPacket<'a> {
             emitters.push(Emitter {
                 radiance: radiance.spectrum(mono).to_array(),
                 area_pdf: 1.0 / (area * los.lights.len() as f32),
+                falloff,
             });
         }
         let (geometry, surfaces, smooth) = lane_surfaces(scene, &shape_emitter, mono)?;
@@ -399,6 +405,7 @@ impl<'a> PathPacket<'a> {
             geometry,
             surfaces,
             target: Target::Lights { parts, cdf },
+            falloff: emitters.iter().any(|e| e.falloff.is_some()),
             emitters,
             smooth,
             mono,
@@ -449,6 +456,7 @@ impl<'a> PathPacket<'a> {
                 emitter: Emitter {
                     radiance: radiance.to_array(),
                     area_pdf: 1.0,
+                    falloff: None,
                 },
             },
             last_leg: spot.last_leg,
@@ -475,6 +483,7 @@ impl<'a> PathPacket<'a> {
             surfaces,
             target: Target::Spot(spot),
             emitters: Vec::new(),
+            falloff: false,
             smooth,
             mono,
             glass,
@@ -735,6 +744,9 @@ impl<'a> PathPacket<'a> {
                 let v = beta[c] * albedo[c] * light.radiance[c] * weight;
                 lit[c] = F8::select(lights, v, b(0.0)).store();
             }
+            if self.falloff {
+                lights = self.fall_off(&light.emitter, &cos_l.store(), lights, &mut lit);
+            }
             let shadow = Packet {
                 o: x.map(F8::store),
                 d: w.map(F8::store),
@@ -840,7 +852,7 @@ impl PathPacket<'_> {
         let (mut v0, mut e1, mut e2) = ([[0.0; L]; 3], [[0.0; L]; 3], [[0.0; L]; 3]);
         let (mut n, mut ng) = ([[0.0; L]; 3], [[0.0; L]; 3]);
         let (mut plane, mut area_pdf, mut radiance) = ([0.0; L], [0.0; L], [[0.0; L]; C]);
-        let mut quad = 0;
+        let (mut quad, mut emitter) = (0, [u32::MAX; L]);
         for l in 0..L {
             let part = &parts[chosen[l] as usize];
             for a in 0..3 {
@@ -851,7 +863,7 @@ impl PathPacket<'_> {
                 radiance[c][l] = part.emitter.radiance[c];
             }
             (plane[l], area_pdf[l]) = (part.surface.plane, part.emitter.area_pdf);
-            quad |= (part.quad as u32) << l;
+            (quad, emitter[l]) = (quad | (part.quad as u32) << l, part.surface.emitter);
         }
         let lanes = |a: [F; 3]| a.each_ref().map(F8::load);
         LightLanes {
@@ -864,7 +876,32 @@ impl PathPacket<'_> {
             plane: F8::load(&plane),
             radiance: radiance.each_ref().map(F8::load),
             area_pdf: F8::load(&area_pdf),
+            emitter,
         }
+    }
+
+    /// `angulararea` lights' falloff on the light samples `lit` of the lanes in `lights`, which
+    /// leave their emitters (`emitter`) at the cosines `cos_l`: the lanes it zeroes leave the
+    /// mask (no shadow ray).
+    #[inline(never)]
+    fn fall_off<const C: usize>(&self, emitter: &U, cos_l: &F, lights: M8, lit: &mut [F; C]) -> M8 {
+        let mut bits = lights.bits();
+        for l in 0..L {
+            if bits >> l & 1 == 0 {
+                continue;
+            }
+            let Some(f) = self.emitters[emitter[l] as usize].falloff else {
+                continue;
+            };
+            let k = f.eval(cos_l[l]);
+            if k == 0.0 {
+                bits &= !(1 << l);
+            }
+            for c in lit.iter_mut() {
+                c[l] *= k;
+            }
+        }
+        M8::from_bits(bits)
     }
 
     /// Emission found by the lanes' rays at their hits (`prim` at distance `t`, met at the cosine
@@ -906,9 +943,13 @@ impl PathPacket<'_> {
                 };
                 mis(p.bsdf_pdf[l], light_pdf)
             };
+            let k = e.falloff.map_or(1.0, |f| f.eval(cos_front[l]));
+            if k == 0.0 {
+                continue;
+            }
             let mut v = [0.0; C];
             for c in 0..C {
-                v[c] = p.beta[c][l] * e.radiance[c] * w;
+                v[c] = p.beta[c][l] * e.radiance[c] * w * k;
             }
             out(splat(p.opl[l], v));
         }
@@ -929,6 +970,7 @@ fn part_lanes<const C: usize>(part: &LightPart) -> LightLanes<C> {
         plane: b(part.surface.plane),
         radiance: std::array::from_fn(|c| b(part.emitter.radiance[c])),
         area_pdf: b(part.emitter.area_pdf),
+        emitter: [part.surface.emitter; L],
     }
 }
 
