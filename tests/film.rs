@@ -182,7 +182,7 @@ fn phasor_frequencies_follow_the_fft_grid_and_put_is_the_fourier_term() {
 
 /// `put` turns one phasor into the next (a run of consecutive FFT frequencies) instead of taking
 /// every sine and cosine: against the Fourier term computed directly, within one f32 rounding, for
-/// near and far optical paths (where a frequency's drift off the grid is computed directly), for
+/// near and far optical paths (up to a million units: a million turns of the rotation), for
 /// mitransient's `cbox_diffuse_freq.xml` film and for a film whose range wraps to the negative
 /// Nyquist frequency (a second run).
 #[test]

@@ -14,27 +14,27 @@ use std::ops::Range;
 /// The frequency set of a phasor film.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Phasor {
-    /// Frequencies, in cycles per unit optical path (1/m).
+    /// Frequencies, in cycles per unit optical path (1/m): the FFT grid's, k/(n·w).
     pub frequencies: Vec<f64>,
     /// The FFT's spacing 1/(n·w), by which consecutive FFT indices' frequencies differ.
     spacing: f64,
     /// The runs of `frequencies` at consecutive FFT indices.
     runs: Vec<Run>,
-    /// Per frequency, −2π times how far it lies from its run's first frequency plus whole
-    /// spacings (its and the first's rounding to f32; 0 for the first): the angle its phasor
-    /// turns off the grid's, per unit optical path.
-    rate: Vec<f64>,
+    /// (sin, cos) of 2π k / [`CIRCLE`] for k in 0..[`CIRCLE`].
+    circle: Vec<(f64, f64)>,
 }
+
+/// Points of the unit circle `Phasor::circle` holds (16 KB): a turn is the nearest one's phasor
+/// turned by the rest, at most π / 1024, whose sine and cosine take four Taylor terms each.
+const CIRCLE: usize = 1024;
 
 /// A run of frequencies at consecutive FFT indices.
 #[derive(Clone, Debug, PartialEq)]
 struct Run {
     /// Their indices in [`Phasor::frequencies`].
     freqs: Range<usize>,
-    /// The first's FFT index k, whose grid frequency is k spacings.
+    /// The first's FFT index k (signed), whose frequency is k spacings.
     index: i64,
-    /// −2π times how far the first lies off its grid frequency (its rounding to f32).
-    rate: f64,
 }
 
 /// Frequencies whose phasors a run advances together, each turned by four spacings a step.
@@ -64,10 +64,7 @@ impl Phasor {
         // numpy.fft.fftfreq(n, d)[k]: k/(n d) below ⌈n/2⌉, (k − n)/(n d) from there.
         let positive = bins.div_ceil(2);
         let signed = |k: usize| if k < positive { k as f64 } else { k as f64 - n };
-        let frequencies: Vec<f64> = (lo..=hi)
-            .map(|k| (signed(k) / (n * bin_width)) as f32 as f64)
-            .collect();
-        let spacing = 1.0 / (n * bin_width);
+        let frequencies: Vec<f64> = (lo..=hi).map(|k| signed(k) / (n * bin_width)).collect();
         let mut runs: Vec<Run> = Vec::new();
         for (j, k) in (lo..=hi).enumerate() {
             match runs.last_mut() {
@@ -75,16 +72,7 @@ impl Phasor {
                 _ => runs.push(Run {
                     freqs: j..j + 1,
                     index: signed(k) as i64,
-                    rate: -std::f64::consts::TAU * (frequencies[j] - signed(k) * spacing),
                 }),
-            }
-        }
-        let mut rate = vec![0.0; frequencies.len()];
-        for Run { freqs: run, .. } in &runs {
-            for j in run.clone() {
-                let drift =
-                    frequencies[j] - frequencies[run.start] - (j - run.start) as f64 * spacing;
-                rate[j] = -std::f64::consts::TAU * drift;
             }
         }
         if frequencies.is_empty() || frequencies.len() > 65_536 {
@@ -97,11 +85,14 @@ impl Phasor {
                 ),
             ));
         }
+        let circle = (0..CIRCLE)
+            .map(|k| (std::f64::consts::TAU * k as f64 / CIRCLE as f64).sin_cos())
+            .collect();
         Ok(Self {
             frequencies,
-            spacing,
+            spacing: 1.0 / (n * bin_width),
             runs,
-            rate,
+            circle,
         })
     }
 
@@ -110,16 +101,12 @@ impl Phasor {
     ///
     /// The phasors e^{−2πi f d} of a run of consecutive FFT frequencies are one rotation apart,
     /// e^{−2πi Δ d} for the spacing Δ, and the run's first, of FFT index k, is that rotation's
-    /// k-th power (by squaring) turned by its own drift off the grid: a run's first [`LANES`]
-    /// phasors are its first one turned by that rotation, and each later one is the phasor
-    /// [`LANES`] before it turned by that rotation's [`LANES`]-th power (one sine and cosine a
-    /// contribution instead of one per frequency, which took most of a phasor render's time; a
-    /// second one for the run's first took a sixth). Each grid phasor is then turned by
-    /// its frequency's small drift off the grid (its rounding to f32), from the sine's and
-    /// cosine's Taylor polynomials. Both are exact to about 1e-14, against the 6e-8 of the f32
-    /// sums; a drift whose turn is not small is computed directly. The [`LANES`] frequencies of a
-    /// step are independent: with AVX2 they are one vector (the same operations, so the same
-    /// bits).
+    /// k-th power (by squaring): a run's first [`LANES`] phasors are its first one turned by that
+    /// rotation, and each later one is the phasor [`LANES`] before it turned by that rotation's
+    /// [`LANES`]-th power (one sine and cosine a contribution instead of one per frequency, which
+    /// took most of a phasor render's time). The phasors are exact to about 1e-14, against the
+    /// 6e-8 of the f32 sums. The [`LANES`] frequencies of a step are independent: with AVX2 they
+    /// are one vector (the same operations, so the same bits).
     #[inline]
     pub fn put(&self, d: f64, v: f32, out: &mut [f32]) {
         #[cfg(target_arch = "x86_64")]
@@ -137,57 +124,48 @@ impl Phasor {
         self.put_lanes(d, v, out)
     }
 
+    /// (sin, cos) of −2π `cycles`: the nearest point of [`CIRCLE`] turned by the rest φ
+    /// (|φ| ≤ π / 1024; the Taylor polynomials' truncation is below 1e-22).
+    #[inline(always)]
+    fn turn(&self, cycles: f64) -> (f64, f64) {
+        let x = (cycles - cycles.floor()) * CIRCLE as f64;
+        let k = x.round();
+        let phi = (x - k) * (std::f64::consts::TAU / CIRCLE as f64);
+        let p2 = phi * phi;
+        let sin = phi * (1.0 - p2 * (1.0 / 6.0 - p2 * (1.0 / 120.0 - p2 * (1.0 / 5040.0))));
+        let cos = 1.0 - p2 * (0.5 - p2 * (1.0 / 24.0 - p2 * (1.0 / 720.0)));
+        let (s, c) = turn_by(self.circle[k as usize % CIRCLE], (sin, cos));
+        (-s, c)
+    }
+
     #[inline(always)]
     fn put_lanes(&self, d: f64, v: f32, out: &mut [f32]) {
-        use std::f64::consts::TAU;
-        let turn = |f: f64| (-TAU * f * d).rem_euclid(TAU).sin_cos();
-        let step = turn(self.spacing);
+        let step = self.turn(self.spacing * d);
         let stride = turn_by(turn_by(step, step), turn_by(step, step));
-        for Run {
-            freqs: run,
-            index,
-            rate,
-        } in &self.runs
-        {
-            // The grid phasors of frequencies j..j + LANES, as sines and cosines; the run's first
-            // is the rotation's index-th power turned by its drift, where that turn is small.
+        for Run { freqs: run, index } in &self.runs {
+            // The phasors of frequencies j..j + LANES, as sines and cosines.
             let (mut s, mut c) = ([0.0; LANES], [1.0; LANES]);
-            let a = rate * d;
-            (s[0], c[0]) = if a.abs() < 1e-3 {
-                let (ps, pc) = drift_turn([0.0], [1.0], [a]);
-                turn_by(power(step, *index), (ps[0], pc[0]))
-            } else {
-                turn(self.frequencies[run.start])
-            };
+            (s[0], c[0]) = power(step, *index);
             for k in 1..LANES {
                 (s[k], c[k]) = turn_by((s[k - 1], c[k - 1]), step);
             }
             let mut j = run.start;
             while j < run.end {
                 let n = (run.end - j).min(LANES);
-                let a: [f64; LANES] =
-                    std::array::from_fn(|k| self.rate[(j + k).min(run.end - 1)] * d);
-                if n == LANES && a.iter().all(|a| a.abs() < 1e-3) {
-                    let (ps, pc) = drift_turn(s, c, a);
+                if n == LANES {
                     let re_im: &mut [f32; 2 * LANES] = (&mut out[2 * j..2 * (j + LANES)])
                         .try_into()
                         .expect("a frequency's [re, im] per frequency");
                     let add: [f32; 2 * LANES] = std::array::from_fn(|i| {
-                        v * if i % 2 == 0 { pc[i / 2] } else { ps[i / 2] } as f32
+                        v * if i % 2 == 0 { c[i / 2] } else { s[i / 2] } as f32
                     });
                     for (o, a) in re_im.iter_mut().zip(add) {
                         *o += a;
                     }
                 } else {
                     for k in 0..n {
-                        let (ps, pc) = if a[k].abs() < 1e-3 {
-                            let (ps, pc) = drift_turn([s[k]], [c[k]], [a[k]]);
-                            (ps[0], pc[0])
-                        } else {
-                            turn(self.frequencies[j + k])
-                        };
-                        out[2 * (j + k)] += v * pc as f32;
-                        out[2 * (j + k) + 1] += v * ps as f32;
+                        out[2 * (j + k)] += v * c[k] as f32;
+                        out[2 * (j + k) + 1] += v * s[k] as f32;
                     }
                 }
                 (s, c) = turn_lanes(s, c, stride);
@@ -195,20 +173,6 @@ impl Phasor {
             }
         }
     }
-}
-
-/// The phasors (`s`, `c`) turned by the small angles `a`: sin a and cos a to a⁵ and a⁴
-/// (truncation below 2e-21), in products (a division by a constant is not one).
-#[inline(always)]
-fn drift_turn<const N: usize>(s: [f64; N], c: [f64; N], a: [f64; N]) -> ([f64; N], [f64; N]) {
-    let a2 = a.map(|a| a * a);
-    let sa: [f64; N] =
-        std::array::from_fn(|k| a[k] * (1.0 - a2[k] * (1.0 / 6.0 - a2[k] * (1.0 / 120.0))));
-    let ca: [f64; N] = std::array::from_fn(|k| 1.0 - a2[k] * (0.5 - a2[k] * (1.0 / 24.0)));
-    (
-        std::array::from_fn(|k| s[k] * ca[k] + c[k] * sa[k]),
-        std::array::from_fn(|k| c[k] * ca[k] - s[k] * sa[k]),
-    )
 }
 
 /// The phasor `z` (sin, cos) to the power `k` (its conjugate's for k < 0), by squaring.
