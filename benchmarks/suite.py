@@ -70,6 +70,43 @@ def bumpy_sphere_mesh(path: Path, n: int = 317) -> str:
     return str(nlos_rs.scenes.write_obj(path, v, np.array(f)))
 
 
+def icosphere_mesh(path: Path, subdivisions: int = 4) -> str:
+    """An icosphere of radius 90 resting on the Cornell box's small box, 20·4^subdivisions
+    triangles (5,120 by default), as OBJ."""
+    import nlos_rs
+
+    t = (1 + 5**0.5) / 2
+    v = [np.array(p, float) / np.linalg.norm(p) for p in
+         [(-1, t, 0), (1, t, 0), (-1, -t, 0), (1, -t, 0), (0, -1, t), (0, 1, t), (0, -1, -t), (0, 1, -t),
+          (t, 0, -1), (t, 0, 1), (-t, 0, -1), (-t, 0, 1)]]
+    f = [(0, 11, 5), (0, 5, 1), (0, 1, 7), (0, 7, 10), (0, 10, 11), (1, 5, 9), (5, 11, 4), (11, 10, 2), (10, 7, 6),
+         (7, 1, 8), (3, 9, 4), (3, 4, 2), (3, 2, 6), (3, 6, 8), (3, 8, 9), (4, 9, 5), (2, 4, 11), (6, 2, 10),
+         (8, 6, 7), (9, 8, 1)]
+    for _ in range(subdivisions):
+        middle: dict = {}
+
+        def mid(a, b):
+            key = (min(a, b), max(a, b))
+            if key not in middle:
+                m = v[a] + v[b]
+                v.append(m / np.linalg.norm(m))
+                middle[key] = len(v) - 1
+            return middle[key]
+
+        f = [g for a, b, c in f for g in
+             ((a, mid(a, b), mid(c, a)), (b, mid(b, c), mid(a, b)), (c, mid(c, a), mid(b, c)),
+              (mid(a, b), mid(b, c), mid(c, a)))]
+    return str(nlos_rs.scenes.write_obj(path, np.array(v) * 90 + np.array([186, 255, 169]), np.array(f)))
+
+
+def cbox_with(out: Path, shape: str) -> str:
+    """mitransient's cbox_diffuse.xml with `shape` (XML) added, its file names made absolute."""
+    path = Path(__file__).resolve().parent.parent / "tests" / "data" / "mitransient" / "cornell-box" / "cbox_diffuse.xml"
+    text = path.read_text().replace('value="meshes/', f'value="{path.parent / "meshes"}/')
+    out.write_text(text.replace("</scene>", shape + "\n</scene>"))
+    return str(out)
+
+
 def scene_copy(path: Path, out: Path, hgs: bool = False, z_bsdf: str | None = None) -> str:
     """A copy of a mitransient scene file, with hidden-geometry sampling off (its plugin default)
     unless `hgs`, and the Z's BSDF (its mesh hidden_geometry_Z.ply) replaced by `z_bsdf` (XML) if
@@ -216,6 +253,17 @@ def workloads(quick: bool):
                                                   max(1, 256 // div), {"res": 64}), "mono"),
         "mitransient_angular_1light_file": (lambda: (str(data / "mitransient" / "angulararea-emitter" / "angular_1light.xml"),
                                                      max(1, 256 // div), {"res": 64}), "mono"),
+        # Line of sight past the lanes' 64 triangles: the Cornell box with a 5,120-triangle icosphere
+        # on its small box, and with an analytic sphere there (no triangle).
+        "cbox_icosphere": (lambda: (cbox_with(scenes.cache_dir() / "bench_cbox_icosphere.xml",
+                                              '<shape type="obj"><string name="filename" value="'
+                                              + icosphere_mesh(scenes.cache_dir() / "bench_icosphere.obj")
+                                              + '"/><ref id="white"/></shape>'),
+                                    max(1, 256 // div), {"res": 64}), "mono"),
+        "cbox_sphere": (lambda: (cbox_with(scenes.cache_dir() / "bench_cbox_sphere.xml",
+                                           '<shape type="sphere"><point name="center" x="186" y="255" z="169"/>'
+                                           '<float name="radius" value="90"/><ref id="white"/></shape>'),
+                                 max(1, 256 // div), {"res": 64}), "mono"),
         "tal_confocal_file": (lambda: (str(data / "tal021" / "confocal.xml"), max(1, (1 << 19) // div)), "mono"),
         # Hidden-geometry sampling off, the default of mitransient's plugin and of tal's generator.
         "z_confocal_bsdf": (lambda: bsdf_sampling(z(4096, width=64, height=64, capture_type="confocal")), "mono"),

@@ -84,8 +84,7 @@ impl Interaction {
     /// Origin for a ray leaving this point towards `d`, offset along the normal as Mitsuba's
     /// `Interaction::spawn_ray` does, so the ray cannot re-hit the surface it starts from.
     pub fn offset_origin(&self, d: Vec3A) -> Vec3A {
-        let mag = (1.0 + self.p.abs().max_element()) * RAY_EPS;
-        self.p + self.ng * mag.copysign(self.ng.dot(d))
+        offset_origin(self.p, self.ng, d)
     }
 }
 
@@ -315,10 +314,24 @@ impl Prim {
     }
 }
 
+/// Origin for a ray leaving the surface point `p` (geometric normal `ng`) towards `d`
+/// ([`Interaction::offset_origin`]).
+#[inline]
+pub fn offset_origin(p: Vec3A, ng: Vec3A, d: Vec3A) -> Vec3A {
+    let mag = (1.0 + p.abs().max_element()) * RAY_EPS;
+    p + ng * mag.copysign(ng.dot(d))
+}
+
 /// A segment from `a` towards `b` as an origin, unit direction and distance limits, ending
 /// `SHADOW_EPS` short of `b` (Mitsuba's `spawn_ray_to`).
 pub fn shadow_segment(a: &Interaction, b: Vec3A) -> (Vec3A, Vec3A, f32) {
-    let o = a.offset_origin(b - a.p);
+    segment_from(a.p, a.ng, b)
+}
+
+/// [`shadow_segment`] from the surface point `p` of geometric normal `ng`.
+#[inline]
+pub fn segment_from(p: Vec3A, ng: Vec3A, b: Vec3A) -> (Vec3A, Vec3A, f32) {
+    let o = offset_origin(p, ng, b - p);
     let v = b - o;
     let dist = v.length();
     (o, v / dist, dist * (1.0 - SHADOW_EPS))

@@ -22,6 +22,9 @@
 //!   sample is a hash of its key and d, so a lane's numbers do not depend on the other lanes.
 //! - **Rays start on the surface** and skip the triangles of its plane, and a shadow ray those of
 //!   its light point's plane, instead of being offset off them ([`crate::geometry::ray_packet`]).
+//!   Line-of-sight scenes of more triangles than the packet test takes (a mesh in a Cornell box)
+//!   trace each lane's ray through the scene's tree instead, offset off its surface as the scalar
+//!   tracer's rays are ([`Geometry::Tree`]); the rest of the bounce stays in lanes.
 //!
 //! Results are the same whatever the thread count: a pixel's samples are traced in one task, in
 //! the same lanes, in the same order. Renders that keep per-sample values (variance, adaptive
@@ -37,8 +40,8 @@ use crate::bsdf::Bsdf;
 use crate::capture::Spot;
 use crate::emitter::{AngularFalloff, Light};
 use crate::error::{NlosError, Result};
-use crate::geometry::Prim;
 use crate::geometry::ray_packet::{LANES as L, NO_PLANE, Packet, PacketScene, barycentric_maps};
+use crate::geometry::{Prim, offset_origin, segment_from};
 use crate::math::{Spectrum, frame_axes};
 use crate::sampling::{
     lane_key, lane_uniform, square_to_uniform_disk_concentric_lanes as square_to_disk,
@@ -65,6 +68,22 @@ const ROULETTE: u32 = 7;
 
 type F = [f32; L];
 type U = [u32; L];
+
+/// Most triangles of a line-of-sight scene the lanes take through its tree ([`Geometry::Tree`]):
+/// each has a [`Surface`] and a [`Smooth`] (about 140 bytes).
+pub const MAX_TREE_TRIANGLES: usize = 1 << 20;
+
+/// What the lanes' rays meet.
+#[derive(Clone)]
+enum Geometry<'a> {
+    /// At most [`crate::geometry::ray_packet::MAX_TRIANGLES`] triangles, each tested against the
+    /// eight rays at once; a ray skips the triangles of its origin's plane key.
+    Packet(PacketScene),
+    /// More (a mesh in a Cornell box): each lane's ray goes through the scene's tree alone, and
+    /// leaves its surface as the scalar tracer's rays do, offset along the geometric normal; a
+    /// triangle's plane key is its own index.
+    Tree(&'a Scene),
+}
 
 /// What a lane needs of the triangle it hit.
 #[derive(Clone, Copy, Debug)]
@@ -218,7 +237,7 @@ pub struct PathPacket<'a> {
     rules: Rules,
     width: usize,
     height: usize,
-    geometry: PacketScene,
+    geometry: Geometry<'a>,
     surfaces: Vec<Surface>,
     target: Target,
     /// The area lights (none in an NLOS capture).
@@ -233,18 +252,30 @@ pub struct PathPacket<'a> {
     glass: bool,
 }
 
-/// The triangles of a scene as lanes read them: the packet scene, each triangle's surface and
-/// its vertex normals.
-type LaneSurfaces = (PacketScene, Vec<Surface>, Vec<Smooth>);
+/// The triangles of a scene as lanes read them: the geometry, each triangle's surface and its
+/// vertex normals.
+type LaneSurfaces<'a> = (Geometry<'a>, Vec<Surface>, Vec<Smooth>);
 
 /// The lockstep form of `scene`'s triangles, if its every primitive is a triangle (at most
-/// [`crate::geometry::ray_packet::MAX_TRIANGLES`]) and its every BSDF `diffuse`, a `twosided`
-/// pair of them or a smooth `dielectric` (not emitting); `shape_emitter`: per shape, the index of
-/// its area light or `u32::MAX`.
-fn lane_surfaces(scene: &Scene, shape_emitter: &[u32], mono: bool) -> Option<LaneSurfaces> {
-    let geometry = PacketScene::new(&scene.prims, |i, j| {
+/// [`crate::geometry::ray_packet::MAX_TRIANGLES`], or with `tree` [`MAX_TREE_TRIANGLES`]) and its
+/// every BSDF `diffuse`, a `twosided` pair of them or a smooth `dielectric` (not emitting);
+/// `shape_emitter`: per shape, the index of its area light or `u32::MAX`.
+fn lane_surfaces<'a>(
+    scene: &'a Scene,
+    shape_emitter: &[u32],
+    mono: bool,
+    tree: bool,
+) -> Option<LaneSurfaces<'a>> {
+    if !crate::simd::available() {
+        return None;
+    }
+    let geometry = match PacketScene::new(&scene.prims, |i, j| {
         scene.prim_shape[i] == scene.prim_shape[j]
-    })?;
+    }) {
+        Some(g) => Geometry::Packet(g),
+        None if tree && scene.prims.len() <= MAX_TREE_TRIANGLES => Geometry::Tree(scene),
+        None => return None,
+    };
     let bsdfs = scene.shape_bsdfs(mono);
     let mut surfaces = Vec::with_capacity(scene.prims.len());
     let mut smooth = Vec::with_capacity(scene.prims.len());
@@ -296,7 +327,10 @@ fn lane_surfaces(scene: &Scene, shape_emitter: &[u32], mono: bool) -> Option<Lan
             two_sided,
             dielectric: eta.is_some(),
             eta: eta.unwrap_or(1.0),
-            plane: geometry.plane(i as u32),
+            plane: match &geometry {
+                Geometry::Packet(g) => g.plane(i as u32),
+                Geometry::Tree(_) => i as f32,
+            },
             emitter,
             curved,
         });
@@ -308,7 +342,7 @@ impl<'a> PathPacket<'a> {
     /// The lockstep render of the line-of-sight `scene`, if its triangles allow
     /// ([`lane_surfaces`]) and its lights are area lights (`area` or `angulararea`) of uniform
     /// radiance on flat-shaded triangles; else `None` (the scalar path tracer renders it).
-    pub fn new(scene: &Scene, los: &'a Los, mono: bool) -> Option<Self> {
+    pub fn new(scene: &'a Scene, los: &'a Los, mono: bool) -> Option<Self> {
         if los.lights.is_empty() {
             return None;
         }
@@ -337,12 +371,16 @@ impl<'a> PathPacket<'a> {
                 falloff,
             });
         }
-        let (geometry, surfaces, smooth) = lane_surfaces(scene, &shape_emitter, mono)?;
+        let (geometry, surfaces, smooth) = lane_surfaces(scene, &shape_emitter, mono, true)?;
         // The light parts: each light triangle, but the two of a parallelogram as one where they
         // share both normals (a light sample's cosines are taken with its part's).
         let mut corners = vec![None; scene.prims.len()];
         let mut second = vec![false; scene.prims.len()];
-        for &(i, j, c) in geometry.parallelograms() {
+        let parallelograms = match &geometry {
+            Geometry::Packet(g) => g.parallelograms(),
+            Geometry::Tree(_) => &[],
+        };
+        for &(i, j, c) in parallelograms {
             let (a, b) = (&surfaces[i as usize], &surfaces[j as usize]);
             let same = |x: [f32; 3], y: [f32; 3]| (0..3).all(|k| (x[k] - y[k]).abs() <= 1e-6);
             if same(a.n, b.n) && same(a.ng, b.ng) {
@@ -418,7 +456,7 @@ impl<'a> PathPacket<'a> {
     /// them to the one spot of a single capture, Lambertian, with hidden-geometry sampling off,
     /// and its triangles allow ([`lane_surfaces`]); else `None` (the scalar tracer renders it).
     /// Its paths are [`super::nlos`]'s: the same connections, depths and roulette.
-    pub fn nlos(scene: &Scene, nlos: &'a Nlos, spots: &[Spot], mono: bool) -> Option<Self> {
+    pub fn nlos(scene: &'a Scene, nlos: &'a Nlos, spots: &[Spot], mono: bool) -> Option<Self> {
         let st = &nlos.settings;
         let camera = nlos.camera.as_ref()?;
         // A path's vertex at loop depth d makes a contribution of depth d + 2 (the spot and the
@@ -439,7 +477,7 @@ impl<'a> PathPacket<'a> {
             return None;
         }
         let (geometry, surfaces, smooth) =
-            lane_surfaces(scene, &vec![u32::MAX; scene.shapes.len()], mono)?;
+            lane_surfaces(scene, &vec![u32::MAX; scene.shapes.len()], mono, false)?;
         let radiance = spot.radiance?;
         let ns = spot.it.ns.to_array();
         let spot = SpotPart {
@@ -582,7 +620,7 @@ impl<'a> PathPacket<'a> {
                     p.ray.tmax[l] = f32::NEG_INFINITY;
                 }
             }
-            let (t, prim) = self.geometry.closest(&p.ray);
+            let (t, prim) = self.closest(&mut p.ray);
             // What each lane hit, gathered into lanes.
             let mut hit = Lanes::<C>::default();
             let (mut curved, mut two_sided, mut glass) = (0, 0, 0);
@@ -756,7 +794,7 @@ impl<'a> PathPacket<'a> {
             };
             let open = match lights.bits() {
                 0 => 0,
-                cand => self.geometry.unoccluded(&shadow, cand),
+                cand => self.unoccluded(&shadow, cand),
             };
             for l in 0..L {
                 if open >> l & 1 != 0 {
@@ -831,6 +869,66 @@ impl<'a> PathPacket<'a> {
 }
 
 impl PathPacket<'_> {
+    /// Each ray's closest hit, distance and triangle (`u32::MAX` for none; a ray with an empty
+    /// interval meets nothing). Through the tree, a ray leaving a surface starts off it
+    /// ([`offset_origin`]), and its origin in `ray` is moved there.
+    #[inline(always)]
+    fn closest(&self, ray: &mut Packet) -> (F, U) {
+        let scene = match &self.geometry {
+            Geometry::Packet(g) => return g.closest(ray),
+            Geometry::Tree(scene) => scene,
+        };
+        let (mut t, mut prim) = ([f32::INFINITY; L], [u32::MAX; L]);
+        for l in 0..L {
+            if !(ray.tmax[l] > ray.tmin[l]) {
+                continue;
+            }
+            let d = Vec3A::new(ray.d[0][l], ray.d[1][l], ray.d[2][l]);
+            let mut o = Vec3A::new(ray.o[0][l], ray.o[1][l], ray.o[2][l]);
+            let from = ray.skip[0][l];
+            if from != NO_PLANE {
+                o = offset_origin(o, self.surfaces[from as usize].ng.into(), d);
+                for a in 0..3 {
+                    ray.o[a][l] = o[a];
+                }
+            }
+            if let Some(hit) = scene.accel.intersect(o, d, ray.tmin[l], ray.tmax[l]) {
+                (t[l], prim[l]) = (hit.t, hit.prim);
+            }
+        }
+        (t, prim)
+    }
+
+    /// The shadow rays of the lanes `lanes` (bit per lane) from a surface point to a point of
+    /// another surface (origin and `o + tmax d`) that meet nothing between, as bits. Through the
+    /// tree, as [`Scene::visible_to`]: off the first surface, short of the second, neither's
+    /// plane tested.
+    #[inline(always)]
+    fn unoccluded(&self, r: &Packet, lanes: u32) -> u32 {
+        let scene = match &self.geometry {
+            Geometry::Packet(g) => return g.unoccluded(r, lanes),
+            Geometry::Tree(scene) => scene,
+        };
+        let mut open = 0;
+        let mut left = lanes;
+        while left != 0 {
+            let l = left.trailing_zeros() as usize;
+            left &= left - 1;
+            let x = Vec3A::new(r.o[0][l], r.o[1][l], r.o[2][l]);
+            let d = Vec3A::new(r.d[0][l], r.d[1][l], r.d[2][l]);
+            let (from, to) = (r.skip[0][l] as usize, r.skip[1][l] as usize);
+            let (o, w, tmax) = segment_from(x, self.surfaces[from].ng.into(), x + d * r.tmax[l]);
+            let plane = |prim: usize| scene.accel.plane_of(scene.prim_shape[prim]);
+            if scene
+                .accel
+                .unoccluded(o, w, 0.0, tmax, [plane(from), plane(to)])
+            {
+                open |= 1 << l;
+            }
+        }
+        open
+    }
+
     /// The light part each lane samples next (its bounce's first number is `dim`): the first
     /// whose cumulative probability exceeds the lane's number, gathered into lanes; the only one
     /// in every lane where the lights are one part (a rectangle), and no number drawn.
