@@ -135,14 +135,27 @@ impl PacketScene {
     /// runs [`F8`]'s vectors ([`crate::simd::available`]); `same_shape(i, j)` tells whether two
     /// primitives belong to one shape (only then may they be tested as one parallelogram).
     pub fn new(prims: &[Prim], same_shape: impl Fn(usize, usize) -> bool) -> Option<Self> {
-        if prims.len() > MAX_TRIANGLES || !crate::simd::available() {
+        Self::of(prims, same_shape, |_| true)
+    }
+
+    /// The packet scene of the primitives of `prims` that `take` picks (triangles, at most
+    /// [`MAX_TRIANGLES`]): the others are met by none of its rays and keep their own index as
+    /// plane key; a triangle is left out of shadow rays only if its plane bounds every primitive.
+    pub fn of(
+        prims: &[Prim],
+        same_shape: impl Fn(usize, usize) -> bool,
+        take: impl Fn(usize) -> bool,
+    ) -> Option<Self> {
+        if (0..prims.len()).filter(|&i| take(i)).count() > MAX_TRIANGLES
+            || !crate::simd::available()
+        {
             return None;
         }
-        let (keys, extent) = plane_keys(prims)?;
+        let (keys, extent) = plane_keys(prims, &take)?;
         let (mut tris, mut occluders, mut parallelograms) = (Vec::new(), Vec::new(), Vec::new());
         let mut paired = vec![false; prims.len()];
         for i in 0..prims.len() {
-            if paired[i] {
+            if paired[i] || !take(i) {
                 continue;
             }
             let Prim::Triangle { v, n } = prims[i] else {
@@ -155,7 +168,7 @@ impl PacketScene {
                 let Prim::Triangle { v: w, .. } = prims[j] else {
                     return None;
                 };
-                if paired[j] || keys[j] != keys[i] || !same_shape(i, j) {
+                if paired[j] || !take(j) || keys[j] != keys[i] || !same_shape(i, j) {
                     return None;
                 }
                 let shared: Vec<usize> = (0..3).filter(|&a| w.contains(&v[a])).collect();
@@ -378,10 +391,11 @@ fn bounds_scene(n: Vec3A, at: Vec3A, prims: &[Prim], tol: f32) -> bool {
     !(below && above)
 }
 
-/// Plane keys of `prims` (`None` unless all are triangles): triangles in one plane, facing either
-/// way (unit normals and offsets equal to 1e-5, or opposite, the offsets relative to the scene's
-/// extent), share one, the lowest index among them; and that extent (at least 1).
-fn plane_keys(prims: &[Prim]) -> Option<(Vec<u32>, f32)> {
+/// Plane keys of `prims` (`None` unless all are triangles): the triangles `take` picks that lie
+/// in one plane, facing either way (unit normals and offsets equal to 1e-5, or opposite, the
+/// offsets relative to the scene's extent), share one, the lowest index among them, and any other
+/// has its own index; and that extent (at least 1).
+fn plane_keys(prims: &[Prim], take: impl Fn(usize) -> bool) -> Option<(Vec<u32>, f32)> {
     let mut planes = Vec::with_capacity(prims.len());
     let mut extent = 1.0f32;
     for p in prims {
@@ -393,12 +407,17 @@ fn plane_keys(prims: &[Prim]) -> Option<(Vec<u32>, f32)> {
     }
     let mut keys: Vec<u32> = Vec::with_capacity(planes.len());
     for (i, &(n, w)) in planes.iter().enumerate() {
-        let same = planes[..i].iter().position(|&(m, e)| {
-            let close = |m: Vec3A, e: f32| {
-                (n - m).abs().max_element() <= 1e-5 && (w - e).abs() <= 1e-5 * extent
-            };
-            close(m, e) || close(-m, -e)
-        });
+        let same = take(i)
+            .then(|| {
+                (0..i).find(|&j| {
+                    let (m, e) = planes[j];
+                    let close = |m: Vec3A, e: f32| {
+                        (n - m).abs().max_element() <= 1e-5 && (w - e).abs() <= 1e-5 * extent
+                    };
+                    take(j) && (close(m, e) || close(-m, -e))
+                })
+            })
+            .flatten();
         keys.push(same.map_or(i as u32, |j| keys[j]));
     }
     Some((keys, extent))

@@ -40,6 +40,7 @@ use crate::bsdf::Bsdf;
 use crate::capture::Spot;
 use crate::emitter::{AngularFalloff, Light};
 use crate::error::{NlosError, Result};
+use crate::geometry::bvh::Accel;
 use crate::geometry::ray_packet::{LANES as L, NO_PLANE, Packet, PacketScene, barycentric_maps};
 use crate::geometry::{Prim, offset_origin, segment_from};
 use crate::math::{Spectrum, frame_axes};
@@ -54,6 +55,7 @@ use crate::simd::{F8, M8};
 use glam::{Vec2, Vec3A};
 use std::f32::consts::FRAC_1_PI;
 use std::ops::Range;
+use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 
 /// Random numbers a bounce draws: light choice, light point (2), BSDF direction (2), Russian
@@ -69,20 +71,102 @@ const ROULETTE: u32 = 7;
 type F = [f32; L];
 type U = [u32; L];
 
-/// Most triangles of a line-of-sight scene the lanes take through its tree ([`Geometry::Tree`]):
+/// Most triangles of a line-of-sight scene the lanes take in two parts ([`Geometry::Split`]):
 /// each has a [`Surface`] and a [`Smooth`] (about 140 bytes).
-pub const MAX_TREE_TRIANGLES: usize = 1 << 20;
+pub const MAX_SPLIT_TRIANGLES: usize = 1 << 20;
 
 /// What the lanes' rays meet.
 #[derive(Clone)]
-enum Geometry<'a> {
+enum Geometry {
     /// At most [`crate::geometry::ray_packet::MAX_TRIANGLES`] triangles, each tested against the
     /// eight rays at once; a ray skips the triangles of its origin's plane key.
     Packet(PacketScene),
-    /// More (a mesh in a Cornell box): each lane's ray goes through the scene's tree alone, and
-    /// leaves its surface as the scalar tracer's rays do, offset along the geometric normal; a
-    /// triangle's plane key is its own index.
-    Tree(&'a Scene),
+    /// More (a mesh in a Cornell box): the scene in two parts ([`Split`]).
+    Split(Arc<Split>),
+}
+
+/// A scene of more triangles than the packet test takes, in two parts: its smallest shapes'
+/// triangles, up to [`crate::geometry::ray_packet::MAX_TRIANGLES`] (a room's walls, a Cornell
+/// box's boxes), tested against the eight rays at once, and the rest (the meshes) in a tree of
+/// their own, through which each lane's ray goes alone and no farther than its packet hit. A ray
+/// leaving a triangle of the tree starts off it, offset along its geometric normal as the scalar
+/// tracer's rays are, and such a triangle's plane key is its own index.
+struct Split {
+    packet: PacketScene,
+    tree: Accel,
+    /// The scene's index of each of the tree's triangles.
+    tree_prims: Vec<u32>,
+    /// Per scene triangle, whether the tree holds it, and its shape.
+    in_tree: Vec<bool>,
+    prim_shape: Vec<u32>,
+    /// The tree's bounding box, padded (low and high corners): most rays of a room pass it by,
+    /// and are answered without entering the tree.
+    bounds: [Vec3A; 2],
+}
+
+impl Split {
+    /// `scene` in two parts, if its every primitive is a triangle (at most
+    /// [`MAX_SPLIT_TRIANGLES`]).
+    fn new(scene: &Scene) -> Option<Self> {
+        let n = scene.prims.len();
+        if n > MAX_SPLIT_TRIANGLES {
+            return None;
+        }
+        // The packet takes whole shapes, fewest triangles first, while they fit.
+        let mut order: Vec<usize> = (0..scene.shapes.len()).collect();
+        order.sort_by_key(|&k| (scene.shapes[k].prims.len(), k));
+        let mut in_tree = vec![true; n];
+        let mut taken = 0;
+        for k in order {
+            let prims = scene.shapes[k].prims.clone();
+            if taken + prims.len() > crate::geometry::ray_packet::MAX_TRIANGLES {
+                break;
+            }
+            taken += prims.len();
+            in_tree[prims].fill(false);
+        }
+        let packet = PacketScene::of(
+            &scene.prims,
+            |i, j| scene.prim_shape[i] == scene.prim_shape[j],
+            |i| !in_tree[i],
+        )?;
+        let tree_prims: Vec<u32> = (0..n as u32).filter(|&i| in_tree[i as usize]).collect();
+        let prims: Vec<Prim> = tree_prims
+            .iter()
+            .map(|&i| scene.prims[i as usize])
+            .collect();
+        let shapes: Vec<u32> = tree_prims
+            .iter()
+            .map(|&i| scene.prim_shape[i as usize])
+            .collect();
+        let (lo, hi) = prims
+            .iter()
+            .fold((Vec3A::INFINITY, Vec3A::NEG_INFINITY), |(lo, hi), p| {
+                let (a, b) = p.bounds();
+                (lo.min(a), hi.max(b))
+            });
+        let pad = Vec3A::splat(1e-4 * (1.0 + lo.abs().max(hi.abs()).max_element()));
+        Some(Self {
+            bounds: [lo - pad, hi + pad],
+            packet,
+            tree: Accel::build(&prims, &shapes, scene.shapes.len()),
+            tree_prims,
+            in_tree,
+            prim_shape: scene.prim_shape.clone(),
+        })
+    }
+
+    /// Whether the ray `o + t d`, t in (tmin, tmax), may meet the tree: it enters its padded box,
+    /// or its direction lies too near an axis plane for the slab test to tell.
+    #[inline(always)]
+    fn may_meet_tree(&self, o: Vec3A, d: Vec3A, tmin: f32, tmax: f32) -> bool {
+        if d.abs().min_element() < 1e-6 {
+            return true;
+        }
+        let inv = d.recip();
+        let (t0, t1) = ((self.bounds[0] - o) * inv, (self.bounds[1] - o) * inv);
+        t0.min(t1).max_element().max(tmin) <= t0.max(t1).min_element().min(tmax)
+    }
 }
 
 /// What a lane needs of the triangle it hit.
@@ -237,7 +321,7 @@ pub struct PathPacket<'a> {
     rules: Rules,
     width: usize,
     height: usize,
-    geometry: Geometry<'a>,
+    geometry: Geometry,
     surfaces: Vec<Surface>,
     target: Target,
     /// The area lights (none in an NLOS capture).
@@ -254,18 +338,18 @@ pub struct PathPacket<'a> {
 
 /// The triangles of a scene as lanes read them: the geometry, each triangle's surface and its
 /// vertex normals.
-type LaneSurfaces<'a> = (Geometry<'a>, Vec<Surface>, Vec<Smooth>);
+type LaneSurfaces = (Geometry, Vec<Surface>, Vec<Smooth>);
 
 /// The lockstep form of `scene`'s triangles, if its every primitive is a triangle (at most
-/// [`crate::geometry::ray_packet::MAX_TRIANGLES`], or with `tree` [`MAX_TREE_TRIANGLES`]) and its
-/// every BSDF `diffuse`, a `twosided` pair of them or a smooth `dielectric` (not emitting);
+/// [`crate::geometry::ray_packet::MAX_TRIANGLES`], or with `split` [`MAX_SPLIT_TRIANGLES`]) and
+/// its every BSDF `diffuse`, a `twosided` pair of them or a smooth `dielectric` (not emitting);
 /// `shape_emitter`: per shape, the index of its area light or `u32::MAX`.
-fn lane_surfaces<'a>(
-    scene: &'a Scene,
+fn lane_surfaces(
+    scene: &Scene,
     shape_emitter: &[u32],
     mono: bool,
-    tree: bool,
-) -> Option<LaneSurfaces<'a>> {
+    split: bool,
+) -> Option<LaneSurfaces> {
     if !crate::simd::available() {
         return None;
     }
@@ -273,7 +357,7 @@ fn lane_surfaces<'a>(
         scene.prim_shape[i] == scene.prim_shape[j]
     }) {
         Some(g) => Geometry::Packet(g),
-        None if tree && scene.prims.len() <= MAX_TREE_TRIANGLES => Geometry::Tree(scene),
+        None if split => Geometry::Split(Arc::new(Split::new(scene)?)),
         None => return None,
     };
     let bsdfs = scene.shape_bsdfs(mono);
@@ -329,7 +413,7 @@ fn lane_surfaces<'a>(
             eta: eta.unwrap_or(1.0),
             plane: match &geometry {
                 Geometry::Packet(g) => g.plane(i as u32),
-                Geometry::Tree(_) => i as f32,
+                Geometry::Split(s) => s.packet.plane(i as u32),
             },
             emitter,
             curved,
@@ -342,7 +426,7 @@ impl<'a> PathPacket<'a> {
     /// The lockstep render of the line-of-sight `scene`, if its triangles allow
     /// ([`lane_surfaces`]) and its lights are area lights (`area` or `angulararea`) of uniform
     /// radiance on flat-shaded triangles; else `None` (the scalar path tracer renders it).
-    pub fn new(scene: &'a Scene, los: &'a Los, mono: bool) -> Option<Self> {
+    pub fn new(scene: &Scene, los: &'a Los, mono: bool) -> Option<Self> {
         if los.lights.is_empty() {
             return None;
         }
@@ -378,7 +462,7 @@ impl<'a> PathPacket<'a> {
         let mut second = vec![false; scene.prims.len()];
         let parallelograms = match &geometry {
             Geometry::Packet(g) => g.parallelograms(),
-            Geometry::Tree(_) => &[],
+            Geometry::Split(s) => s.packet.parallelograms(),
         };
         for &(i, j, c) in parallelograms {
             let (a, b) = (&surfaces[i as usize], &surfaces[j as usize]);
@@ -456,7 +540,7 @@ impl<'a> PathPacket<'a> {
     /// them to the one spot of a single capture, Lambertian, with hidden-geometry sampling off,
     /// and its triangles allow ([`lane_surfaces`]); else `None` (the scalar tracer renders it).
     /// Its paths are [`super::nlos`]'s: the same connections, depths and roulette.
-    pub fn nlos(scene: &'a Scene, nlos: &'a Nlos, spots: &[Spot], mono: bool) -> Option<Self> {
+    pub fn nlos(scene: &Scene, nlos: &'a Nlos, spots: &[Spot], mono: bool) -> Option<Self> {
         let st = &nlos.settings;
         let camera = nlos.camera.as_ref()?;
         // A path's vertex at loop depth d makes a contribution of depth d + 2 (the spot and the
@@ -869,61 +953,73 @@ impl<'a> PathPacket<'a> {
 }
 
 impl PathPacket<'_> {
-    /// Each ray's closest hit, distance and triangle (`u32::MAX` for none; a ray with an empty
-    /// interval meets nothing). Through the tree, a ray leaving a surface starts off it
-    /// ([`offset_origin`]), and its origin in `ray` is moved there.
+    /// Each ray's closest hit, distance and triangle (`u32::MAX` for none). In a [`Split`]
+    /// scene, a ray leaving a triangle of the tree starts off it ([`offset_origin`]; its origin
+    /// in `ray` is moved there), and the packet's closest hit bounds its way through the tree.
     #[inline(always)]
     fn closest(&self, ray: &mut Packet) -> (F, U) {
-        let scene = match &self.geometry {
+        let split = match &self.geometry {
             Geometry::Packet(g) => return g.closest(ray),
-            Geometry::Tree(scene) => scene,
+            Geometry::Split(s) => s,
         };
-        let (mut t, mut prim) = ([f32::INFINITY; L], [u32::MAX; L]);
         for l in 0..L {
-            if !(ray.tmax[l] > ray.tmin[l]) {
-                continue;
-            }
-            let d = Vec3A::new(ray.d[0][l], ray.d[1][l], ray.d[2][l]);
-            let mut o = Vec3A::new(ray.o[0][l], ray.o[1][l], ray.o[2][l]);
             let from = ray.skip[0][l];
-            if from != NO_PLANE {
-                o = offset_origin(o, self.surfaces[from as usize].ng.into(), d);
+            if from != NO_PLANE && split.in_tree[from as usize] {
+                let d = Vec3A::new(ray.d[0][l], ray.d[1][l], ray.d[2][l]);
+                let o = Vec3A::new(ray.o[0][l], ray.o[1][l], ray.o[2][l]);
+                let o = offset_origin(o, self.surfaces[from as usize].ng.into(), d);
                 for a in 0..3 {
                     ray.o[a][l] = o[a];
                 }
             }
-            if let Some(hit) = scene.accel.intersect(o, d, ray.tmin[l], ray.tmax[l]) {
-                (t[l], prim[l]) = (hit.t, hit.prim);
+        }
+        let (mut t, mut prim) = split.packet.closest(ray);
+        for l in 0..L {
+            let tmax = ray.tmax[l].min(t[l]);
+            if !(tmax > ray.tmin[l]) {
+                continue;
+            }
+            let o = Vec3A::new(ray.o[0][l], ray.o[1][l], ray.o[2][l]);
+            let d = Vec3A::new(ray.d[0][l], ray.d[1][l], ray.d[2][l]);
+            if !split.may_meet_tree(o, d, ray.tmin[l], tmax) {
+                continue;
+            }
+            if let Some(hit) = split.tree.intersect(o, d, ray.tmin[l], tmax) {
+                (t[l], prim[l]) = (hit.t, split.tree_prims[hit.prim as usize]);
             }
         }
         (t, prim)
     }
 
     /// The shadow rays of the lanes `lanes` (bit per lane) from a surface point to a point of
-    /// another surface (origin and `o + tmax d`) that meet nothing between, as bits. Through the
-    /// tree, as [`Scene::visible_to`]: off the first surface, short of the second, neither's
-    /// plane tested.
+    /// another surface (origin and `o + tmax d`) that meet nothing between, as bits. In a
+    /// [`Split`] scene, those the packet leaves open go through the tree as
+    /// [`Scene::visible_to`]'s: off the first surface, short of the second, neither's plane tested.
     #[inline(always)]
     fn unoccluded(&self, r: &Packet, lanes: u32) -> u32 {
-        let scene = match &self.geometry {
+        let split = match &self.geometry {
             Geometry::Packet(g) => return g.unoccluded(r, lanes),
-            Geometry::Tree(scene) => scene,
+            Geometry::Split(s) => s,
         };
-        let mut open = 0;
-        let mut left = lanes;
+        let mut open = split.packet.unoccluded(r, lanes);
+        let mut left = open;
         while left != 0 {
             let l = left.trailing_zeros() as usize;
             left &= left - 1;
             let x = Vec3A::new(r.o[0][l], r.o[1][l], r.o[2][l]);
             let d = Vec3A::new(r.d[0][l], r.d[1][l], r.d[2][l]);
+            // (A plane key is a triangle of that plane, or the tree's triangle itself.)
             let (from, to) = (r.skip[0][l] as usize, r.skip[1][l] as usize);
             let (o, w, tmax) = segment_from(x, self.surfaces[from].ng.into(), x + d * r.tmax[l]);
-            let plane = |prim: usize| scene.accel.plane_of(scene.prim_shape[prim]);
-            if scene
-                .accel
+            if !split.may_meet_tree(o, w, 0.0, tmax) {
+                continue;
+            }
+            let plane = |prim: usize| split.tree.plane_of(split.prim_shape[prim]);
+            if !split
+                .tree
                 .unoccluded(o, w, 0.0, tmax, [plane(from), plane(to)])
             {
-                open |= 1 << l;
+                open &= !(1 << l);
             }
         }
         open
