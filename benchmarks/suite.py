@@ -70,9 +70,9 @@ def bumpy_sphere_mesh(path: Path, n: int = 317) -> str:
     return str(nlos_rs.scenes.write_obj(path, v, np.array(f)))
 
 
-def icosphere_mesh(path: Path, subdivisions: int = 4) -> str:
-    """An icosphere of radius 90 resting on the Cornell box's small box, 20·4^subdivisions
-    triangles (5,120 by default), as OBJ."""
+def icosphere_mesh(path: Path, subdivisions: int = 4, center=(186, 255, 169), radius: float = 90) -> str:
+    """An icosphere of 20·4^subdivisions triangles (5,120 by default), by default of radius 90
+    resting on the Cornell box's small box, as OBJ."""
     import nlos_rs
 
     t = (1 + 5**0.5) / 2
@@ -96,7 +96,7 @@ def icosphere_mesh(path: Path, subdivisions: int = 4) -> str:
         f = [g for a, b, c in f for g in
              ((a, mid(a, b), mid(c, a)), (b, mid(b, c), mid(a, b)), (c, mid(c, a), mid(b, c)),
               (mid(a, b), mid(b, c), mid(c, a)))]
-    return str(nlos_rs.scenes.write_obj(path, np.array(v) * 90 + np.array([186, 255, 169]), np.array(f)))
+    return str(nlos_rs.scenes.write_obj(path, np.array(v) * radius + np.array(center), np.array(f)))
 
 
 def cbox_with(out: Path, shape: str) -> str:
@@ -107,11 +107,12 @@ def cbox_with(out: Path, shape: str) -> str:
     return str(out)
 
 
-def scene_copy(path: Path, out: Path, hgs: bool = False, z_bsdf: str | None = None) -> str:
+def scene_copy(path: Path, out: Path, hgs: bool = False, z_bsdf: str | None = None, extra: str = "") -> str:
     """A copy of a mitransient scene file, with hidden-geometry sampling off (its plugin default)
-    unless `hgs`, and the Z's BSDF (its mesh hidden_geometry_Z.ply) replaced by `z_bsdf` (XML) if
-    given, its relative file names made absolute so that it loads from `out`."""
-    text = path.read_text()
+    unless `hgs`, the Z's BSDF (its mesh hidden_geometry_Z.ply) replaced by `z_bsdf` (XML) if
+    given and the shapes `extra` (XML) added, its relative file names made absolute so that it
+    loads from `out`."""
+    text = path.read_text().replace("</scene>", extra + "</scene>")
     if not hgs:
         text = text.replace('name="nlos_hidden_geometry_sampling" value="true"', 'name="nlos_hidden_geometry_sampling" value="false"')
     if z_bsdf is not None:
@@ -280,6 +281,12 @@ def workloads(quick: bool):
                                       "mono"),
         # mitransient's room with hidden-geometry sampling off: the walls surround the Z, so every
         # direction from the relay wall meets something and no cone turns a path down.
+        # The room, hidden-geometry sampling off, with a 5,120-triangle icosphere beside the Z.
+        "mitransient_room_icosphere_bsdf": (lambda: (scene_copy(
+            data / "mitransient" / "transient-nlos" / "nlos-z-room.xml", scenes.cache_dir() / "bench_room_icosphere.xml",
+            extra='<shape type="obj"><string name="filename" value="' + icosphere_mesh(
+                scenes.cache_dir() / "bench_room_icosphere.obj", center=(0.5, -0.5, 2.4), radius=0.3) + '"/></shape>'),
+            max(1, 8192 // div)), "mono"),
         "mitransient_room_file_bsdf": (lambda: (scene_copy(data / "mitransient" / "transient-nlos" / "nlos-z-room.xml",
                                                              scenes.cache_dir() / "bench_nlos-z-room_hgs_off.xml"),
                                                 max(1, 8192 // div)), "mono"),

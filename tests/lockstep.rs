@@ -109,13 +109,12 @@ fn octahedron_obj(tag: &str) -> PathBuf {
     path
 }
 
-/// A latitude-longitude sphere of radius 90 on the Cornell box's small box, `rings` × `segments`
-/// quads (triangles at the poles), its vertex normals along its radii, as an OBJ file in the
-/// temporary folder (`tag` as in [`octahedron_obj`]).
-fn sphere_obj(tag: &str, rings: usize, segments: usize) -> PathBuf {
+/// A latitude-longitude sphere of centre `c` and radius `r`, `rings` × `segments` quads
+/// (triangles at the poles), its vertex normals along its radii, as an OBJ file in the temporary
+/// folder (`tag` as in [`octahedron_obj`]).
+fn sphere_obj(tag: &str, rings: usize, segments: usize, c: [f64; 3], r: f64) -> PathBuf {
     let name = format!("nlos_rs_los_sphere_{}_{tag}.obj", std::process::id());
     let path = std::env::temp_dir().join(name);
-    let (c, r) = ([185.0f64, 255.0, 170.0], 90.0);
     let mut s = String::new();
     for i in 0..=rings {
         let th = std::f64::consts::PI * i as f64 / rings as f64;
@@ -155,7 +154,8 @@ fn sphere_obj(tag: &str, rings: usize, segments: usize) -> PathBuf {
 /// and glass.
 #[test]
 fn lockstep_through_the_tree_agrees_with_the_scalar_tracer() {
-    let obj = sphere_obj("tree", 6, 10);
+    // On the Cornell box's small box.
+    let obj = sphere_obj("tree", 6, 10, [185.0, 255.0, 170.0], 90.0);
     let with = |bsdf: &str| {
         let shape = format!(
             "<shape type=\"obj\"><string name=\"filename\" value=\"{}\"/>{bsdf}</shape>\n</scene>",
@@ -749,6 +749,7 @@ fn nlos_file(file: &str, edit: impl Fn(String) -> String) -> Scene {
 /// files (the Z in a room, the Z alone) and on variants of them.
 #[test]
 fn nlos_lockstep_agrees_with_the_scalar_tracer() {
+    let room_sphere = sphere_obj("room", 6, 10, [0.5, -0.5, 2.4], 0.3);
     let integrator = |extra: &'static str| {
         move |t: String| {
             t.replace(
@@ -806,6 +807,19 @@ fn nlos_lockstep_agrees_with_the_scalar_tracer() {
             true,
         ),
         (
+            "nlos-z-room.xml with a curved sphere of 100 triangles beside the Z (packet and tree), rgb",
+            nlos_file("nlos-z-room.xml", |t| {
+                t.replace(
+                    "</scene>",
+                    &format!(
+                        "<shape type=\"obj\"><string name=\"filename\" value=\"{}\"/></shape>\n</scene>",
+                        room_sphere.display()
+                    ),
+                )
+            }),
+            false,
+        ),
+        (
             "nlos-z-room.xml, one-sided, filter_bounces 3, mono",
             nlos_file("nlos-z-room.xml", |t| {
                 integrator("<integer name=\"filter_bounces\" value=\"3\"/>")(t).replace(
@@ -816,6 +830,7 @@ fn nlos_lockstep_agrees_with_the_scalar_tracer() {
             true,
         ),
     ];
+    std::fs::remove_file(&room_sphere).expect("scratch file");
     for (name, scene, mono) in &cases {
         let Setup::Nlos(nlos) = &scene.setup else {
             panic!("{name}: an NLOS scene")

@@ -357,7 +357,15 @@ fn lane_surfaces(
         scene.prim_shape[i] == scene.prim_shape[j]
     }) {
         Some(g) => Geometry::Packet(g),
-        None if split => Geometry::Split(Arc::new(Split::new(scene)?)),
+        // (Kept with the scene: one for both variants.)
+        None if split => Geometry::Split(
+            scene
+                .prepared
+                .get_or_make(true, || {
+                    Split::new(scene).ok_or(NlosError::Scene("no split scene".into()))
+                })
+                .ok()?,
+        ),
         None => return None,
     };
     let bsdfs = scene.shape_bsdfs(mono);
@@ -561,7 +569,7 @@ impl<'a> PathPacket<'a> {
             return None;
         }
         let (geometry, surfaces, smooth) =
-            lane_surfaces(scene, &vec![u32::MAX; scene.shapes.len()], mono, false)?;
+            lane_surfaces(scene, &vec![u32::MAX; scene.shapes.len()], mono, true)?;
         let radiance = spot.radiance?;
         let ns = spot.it.ns.to_array();
         let spot = SpotPart {

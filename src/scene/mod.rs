@@ -21,8 +21,8 @@ use crate::props::Colour;
 use crate::sensor::{Camera, Meter};
 use crate::settings::{NlosSettings, PathSettings};
 use glam::{Vec2, Vec3A};
-use std::any::Any;
-use std::sync::{Arc, OnceLock};
+use std::any::{Any, TypeId};
+use std::sync::{Arc, Mutex, PoisonError};
 
 /// A shape: its primitives, BSDF and area.
 #[derive(Clone, Debug)]
@@ -113,12 +113,15 @@ pub struct Scene {
     pub prepared: Prepared,
 }
 
-/// What a renderer makes from a scene alone before it traces (an NLOS capture's scan points,
-/// laser spots and cones), made once per variant (mono, rgb) and kept for later renders. Its type
-/// is the renderer's, which the scene does not know. A copy of the scene, made to change it,
-/// starts with nothing kept.
+/// What renderers make from a scene alone before they trace (an NLOS capture's scan points,
+/// laser spots and cones, the lanes' tree of a mesh), made once per type and variant (mono, rgb)
+/// and kept for later renders. The types are the renderers', which the scene does not know. A
+/// copy of the scene, made to change it, starts with nothing kept.
 #[derive(Default)]
-pub struct Prepared([OnceLock<Arc<dyn Any + Send + Sync>>; 2]);
+pub struct Prepared(Mutex<Vec<Kept>>);
+
+/// One thing [`Prepared`] keeps: its type, its variant (mono or not) and it.
+type Kept = (TypeId, bool, Arc<dyn Any + Send + Sync>);
 
 impl Clone for Prepared {
     fn clone(&self) -> Self {
@@ -134,12 +137,20 @@ impl Prepared {
         mono: bool,
         make: impl FnOnce() -> Result<T>,
     ) -> Result<Arc<T>> {
-        let slot = &self.0[mono as usize];
-        if let Some(kept) = slot.get().and_then(|k| k.clone().downcast::<T>().ok()) {
+        let find = |kept: &[Kept]| {
+            kept.iter()
+                .find(|k| k.0 == TypeId::of::<T>() && k.1 == mono)
+                .and_then(|k| k.2.clone().downcast::<T>().ok())
+        };
+        if let Some(kept) = find(&self.0.lock().unwrap_or_else(PoisonError::into_inner)) {
             return Ok(kept);
         }
         let made = Arc::new(make()?);
-        let _ = slot.set(made.clone());
+        let mut kept = self.0.lock().unwrap_or_else(PoisonError::into_inner);
+        if let Some(first) = find(&kept) {
+            return Ok(first);
+        }
+        kept.push((TypeId::of::<T>(), mono, made.clone()));
         Ok(made)
     }
 }
