@@ -148,10 +148,11 @@ fn sphere_obj(tag: &str, rings: usize, segments: usize, c: [f64; 3], r: f64) -> 
     path
 }
 
-/// Line-of-sight scenes past the packet test's 64 triangles take the lanes with each lane's ray
-/// through the tree: lockstep renders agree with the scalar tracer's and are bit-identical at 1,
-/// 2 and 3 threads, with a curved sphere of 100 triangles on the Cornell box's small box, Lambertian
-/// and glass.
+/// Line-of-sight scenes past the packet test (more than 64 triangles, or spheres and disks) take
+/// the lanes with their meshes and curved primitives in a tree: lockstep renders agree with the
+/// scalar tracer's and are bit-identical at 1, 2 and 3 threads, with a curved sphere of 100
+/// triangles on the Cornell box's small box (Lambertian and glass), an analytic sphere there
+/// (Lambertian, and glass with a disk facing the camera).
 #[test]
 fn lockstep_through_the_tree_agrees_with_the_scalar_tracer() {
     // On the Cornell box's small box.
@@ -163,6 +164,17 @@ fn lockstep_through_the_tree_agrees_with_the_scalar_tracer() {
         );
         cbox(6, |t| t.replace("</scene>", &shape))
     };
+    let analytic =
+        |shapes: &str| cbox(6, |t| t.replace("</scene>", &format!("{shapes}\n</scene>")));
+    let sphere = |bsdf: &str| {
+        format!(
+            "<shape type=\"sphere\"><point name=\"center\" x=\"185\" y=\"255\" z=\"170\"/>\
+             <float name=\"radius\" value=\"90\"/>{bsdf}</shape>"
+        )
+    };
+    let disk = "<shape type=\"disk\"><transform name=\"to_world\"><scale value=\"80\"/>\
+                <translate x=\"400\" y=\"300\" z=\"450\"/></transform><ref id=\"gray\"/>\
+                <boolean name=\"flip_normals\" value=\"true\"/></shape>";
     let cases = [
         (
             "a curved sphere of 100 triangles, rgb",
@@ -174,10 +186,19 @@ fn lockstep_through_the_tree_agrees_with_the_scalar_tracer() {
             with("<bsdf type=\"dielectric\"/>"),
             true,
         ),
+        (
+            "an analytic sphere, rgb",
+            analytic(&sphere("<ref id=\"white\"/>")),
+            false,
+        ),
+        (
+            "an analytic sphere of glass and a disk facing the camera, mono",
+            analytic(&(sphere("<bsdf type=\"dielectric\"/>") + disk)),
+            true,
+        ),
     ];
     std::fs::remove_file(&obj).expect("scratch file");
     for (name, scene, mono) in &cases {
-        assert!(scene.prims.len() > nlos_rs::geometry::ray_packet::MAX_TRIANGLES);
         assert!(
             PathPacket::new(scene, los(scene), *mono).is_some() || !nlos_rs::simd::available(),
             "{name}: not lockstep"

@@ -378,46 +378,61 @@ unsafe fn unoccluded(tris: &Tris, p: &Packet, lanes: u32) -> u32 {
 /// within `tol` of it.
 fn bounds_scene(n: Vec3A, at: Vec3A, prims: &[Prim], tol: f32) -> bool {
     let (mut below, mut above) = (false, false);
+    let mut side = |x: Vec3A| {
+        let h = n.dot(x - at);
+        below |= h < -tol;
+        above |= h > tol;
+    };
     for p in prims {
-        let Prim::Triangle { v, .. } = p else {
-            return false;
-        };
-        for x in v {
-            let h = n.dot(*x - at);
-            below |= h < -tol;
-            above |= h > tol;
+        match p {
+            Prim::Triangle { v, .. } => v.iter().for_each(|x| side(*x)),
+            // (Another primitive lies within its box: its corners.)
+            _ => {
+                let (lo, hi) = p.bounds();
+                for k in 0..8 {
+                    side(Vec3A::select(
+                        glam::BVec3A::new(k & 1 != 0, k & 2 != 0, k & 4 != 0),
+                        hi,
+                        lo,
+                    ));
+                }
+            }
         }
     }
     !(below && above)
 }
 
-/// Plane keys of `prims` (`None` unless all are triangles): the triangles `take` picks that lie
-/// in one plane, facing either way (unit normals and offsets equal to 1e-5, or opposite, the
-/// offsets relative to the scene's extent), share one, the lowest index among them, and any other
-/// has its own index; and that extent (at least 1).
+/// Plane keys of `prims` (`None` unless those `take` picks are triangles): the picked triangles
+/// that lie in one plane, facing either way (unit normals and offsets equal to 1e-5, or opposite,
+/// the offsets relative to the scene's extent), share one, the lowest index among them, and any
+/// other primitive has its own index; and that extent (at least 1).
 fn plane_keys(prims: &[Prim], take: impl Fn(usize) -> bool) -> Option<(Vec<u32>, f32)> {
     let mut planes = Vec::with_capacity(prims.len());
     let mut extent = 1.0f32;
-    for p in prims {
-        let Prim::Triangle { v, n } = *p else {
-            return None;
-        };
-        planes.push((n, n.dot(v[0])));
-        extent = v.iter().fold(extent, |e, x| e.max(x.abs().max_element()));
+    for (i, p) in prims.iter().enumerate() {
+        match *p {
+            Prim::Triangle { v, n } => {
+                planes.push(Some((n, n.dot(v[0]))));
+                extent = v.iter().fold(extent, |e, x| e.max(x.abs().max_element()));
+            }
+            _ if !take(i) => {
+                planes.push(None);
+                let (lo, hi) = p.bounds();
+                extent = extent.max(lo.abs().max(hi.abs()).max_element());
+            }
+            _ => return None,
+        }
     }
     let mut keys: Vec<u32> = Vec::with_capacity(planes.len());
-    for (i, &(n, w)) in planes.iter().enumerate() {
-        let same = take(i)
-            .then(|| {
-                (0..i).find(|&j| {
-                    let (m, e) = planes[j];
-                    let close = |m: Vec3A, e: f32| {
-                        (n - m).abs().max_element() <= 1e-5 && (w - e).abs() <= 1e-5 * extent
-                    };
-                    take(j) && (close(m, e) || close(-m, -e))
-                })
+    for (i, plane) in planes.iter().enumerate() {
+        let same = plane.filter(|_| take(i)).and_then(|(n, w)| {
+            (0..i).find(|&j| {
+                let close = |m: Vec3A, e: f32| {
+                    (n - m).abs().max_element() <= 1e-5 && (w - e).abs() <= 1e-5 * extent
+                };
+                take(j) && planes[j].is_some_and(|(m, e)| close(m, e) || close(-m, -e))
             })
-            .flatten();
+        });
         keys.push(same.map_or(i as u32, |j| keys[j]));
     }
     Some((keys, extent))

@@ -105,8 +105,8 @@ struct Split {
 }
 
 impl Split {
-    /// `scene` in two parts, if its every primitive is a triangle (at most
-    /// [`MAX_SPLIT_TRIANGLES`]).
+    /// `scene` in two parts (at most [`MAX_SPLIT_TRIANGLES`] primitives; spheres and disks go
+    /// in the tree).
     fn new(scene: &Scene) -> Option<Self> {
         let n = scene.prims.len();
         if n > MAX_SPLIT_TRIANGLES {
@@ -121,6 +121,12 @@ impl Split {
             let prims = scene.shapes[k].prims.clone();
             if taken + prims.len() > crate::geometry::ray_packet::MAX_TRIANGLES {
                 break;
+            }
+            if !scene.prims[prims.clone()]
+                .iter()
+                .all(|p| matches!(p, Prim::Triangle { .. }))
+            {
+                continue;
             }
             taken += prims.len();
             in_tree[prims].fill(false);
@@ -189,25 +195,30 @@ struct Surface {
     plane: f32,
     /// Index in `emitters` of the area light the triangle belongs to, or `u32::MAX`.
     emitter: u32,
-    /// Its vertex normals differ: the shading normal is interpolated at each hit ([`Smooth`]).
+    /// Its normal varies: it is found at each hit ([`Smooth`]; a triangle's whose vertex
+    /// normals differ, a sphere's).
     curved: bool,
 }
 
-/// A triangle's vertex normals, as a lane interpolates them at its hit: the barycentrics of a
-/// point x of the triangle, b_k = a_k·x + w_k (k = 1, 2), and the normals n0, n1 − n0, n2 − n0
-/// (`flip_normals` applied).
+/// A primitive's normal at a lane's hit x.
 #[derive(Clone, Copy, Debug)]
-struct Smooth {
-    bary: [[f32; 4]; 2],
-    n: [[f32; 3]; 3],
+enum Smooth {
+    /// A triangle's vertex normals, interpolated: the barycentrics of x, b_k = a_k·x + w_k
+    /// (k = 1, 2), and the normals n0, n1 − n0, n2 − n0 (`flip_normals` applied).
+    Triangle {
+        bary: [[f32; 4]; 2],
+        n: [[f32; 3]; 3],
+    },
+    /// A sphere's, along x − centre (times `sign`: `flip_normals`).
+    Sphere { center: [f32; 3], sign: f32 },
 }
 
 impl Smooth {
     /// The interpolation over the triangle `v` of the vertex normals `vn` (each face normal `ng`
     /// where there are none), times `sign`.
-    fn new(v: [Vec3A; 3], vn: Option<[Vec3A; 3]>, ng: Vec3A, sign: f32) -> Self {
+    fn triangle(v: [Vec3A; 3], vn: Option<[Vec3A; 3]>, ng: Vec3A, sign: f32) -> Self {
         let vn = vn.unwrap_or([ng; 3]).map(|n| n * sign);
-        Self {
+        Self::Triangle {
             bary: barycentric_maps(v),
             n: [
                 vn[0].to_array(),
@@ -372,24 +383,42 @@ fn lane_surfaces(
     let mut surfaces = Vec::with_capacity(scene.prims.len());
     let mut smooth = Vec::with_capacity(scene.prims.len());
     for (i, prim) in scene.prims.iter().enumerate() {
-        let Prim::Triangle { v, n } = *prim else {
-            return None;
-        };
-        // A triangle's vertex normals that are all one (a flat face's, as a mesh file rounds
-        // it) are the shading normal of its every point; others are interpolated at each hit
-        // (`curved`).
         let shape = scene.prim_shape[i] as usize;
         let emitter = shape_emitter[shape];
-        let (ng, ns, curved) = match scene.prim_normals[i] {
-            None => (n, n, false),
-            Some(vn) => {
-                let m = vn[0].normalize_or(n);
-                let curved = vn.iter().any(|k| k.normalize_or(n).dot(m) < 1.0 - 1e-6);
+        let sign = scene.normal_sign(shape);
+        // A triangle's vertex normals that are all one (a flat face's, as a mesh file rounds
+        // it) are the shading normal of its every point; others are interpolated at each hit
+        // (`curved`), as a sphere's are found there. (Light parts are triangles; spheres and
+        // disks are in a split scene's tree.)
+        let (ng, ns, curved, normals) = match *prim {
+            Prim::Triangle { v, n } => {
+                let (ns, curved) = match scene.prim_normals[i] {
+                    None => (n, false),
+                    Some(vn) => {
+                        let m = vn[0].normalize_or(n);
+                        (m, vn.iter().any(|k| k.normalize_or(n).dot(m) < 1.0 - 1e-6))
+                    }
+                };
                 // A light sample's cosine is taken with one normal per light triangle.
                 if curved && emitter != u32::MAX {
                     return None;
                 }
-                (n, m, curved)
+                let normals = Smooth::triangle(v, scene.prim_normals[i], n, sign);
+                (n, ns, curved, normals)
+            }
+            _ if emitter != u32::MAX || !matches!(geometry, Geometry::Split(_)) => return None,
+            Prim::Sphere { center, .. } => {
+                let center = center.to_array();
+                (Vec3A::Z, Vec3A::Z, true, Smooth::Sphere { center, sign })
+            }
+            Prim::Disk { inv } => {
+                // (Its one normal: the interpolation of three equal ones.)
+                let n = Prim::disk_normal(&inv);
+                let normals = Smooth::Triangle {
+                    bary: [[0.0; 4]; 2],
+                    n: [(n * sign).to_array(), [0.0; 3], [0.0; 3]],
+                };
+                (n, n, false, normals)
             }
         };
         let (albedo, two_sided, eta) = match &bsdfs[shape] {
@@ -409,8 +438,7 @@ fn lane_surfaces(
             }
             _ => return None,
         };
-        let sign = scene.normal_sign(shape);
-        smooth.push(Smooth::new(v, scene.prim_normals[i], ng, sign));
+        smooth.push(normals);
         let (n, ng) = (ns * sign, ng * sign);
         surfaces.push(Surface {
             n: n.to_array(),
@@ -961,6 +989,15 @@ impl<'a> PathPacket<'a> {
 }
 
 impl PathPacket<'_> {
+    /// The geometric normal of primitive `prim` at its point `x` (a sphere's varies).
+    #[inline(always)]
+    fn geometric_normal(&self, prim: usize, x: Vec3A) -> Vec3A {
+        match self.smooth[prim] {
+            Smooth::Sphere { center, .. } => (x - Vec3A::from(center)).normalize(),
+            Smooth::Triangle { .. } => self.surfaces[prim].ng.into(),
+        }
+    }
+
     /// Each ray's closest hit, distance and triangle (`u32::MAX` for none). In a [`Split`]
     /// scene, a ray leaving a triangle of the tree starts off it ([`offset_origin`]; its origin
     /// in `ray` is moved there), and the packet's closest hit bounds its way through the tree.
@@ -975,7 +1012,7 @@ impl PathPacket<'_> {
             if from != NO_PLANE && split.in_tree[from as usize] {
                 let d = Vec3A::new(ray.d[0][l], ray.d[1][l], ray.d[2][l]);
                 let o = Vec3A::new(ray.o[0][l], ray.o[1][l], ray.o[2][l]);
-                let o = offset_origin(o, self.surfaces[from as usize].ng.into(), d);
+                let o = offset_origin(o, self.geometric_normal(from as usize, o), d);
                 for a in 0..3 {
                     ray.o[a][l] = o[a];
                 }
@@ -1018,7 +1055,7 @@ impl PathPacket<'_> {
             let d = Vec3A::new(r.d[0][l], r.d[1][l], r.d[2][l]);
             // (A plane key is a triangle of that plane, or the tree's triangle itself.)
             let (from, to) = (r.skip[0][l] as usize, r.skip[1][l] as usize);
-            let (o, w, tmax) = segment_from(x, self.surfaces[from].ng.into(), x + d * r.tmax[l]);
+            let (o, w, tmax) = segment_from(x, self.geometric_normal(from, x), x + d * r.tmax[l]);
             if !split.may_meet_tree(o, w, 0.0, tmax) {
                 continue;
             }
@@ -1271,26 +1308,31 @@ impl<const C: usize> Paths<C> {
     }
 }
 
-/// The shading normal of each lane of `lanes` (bit per lane) at its hit `x` on triangle `prim`
-/// (interpolated from its vertex normals and normalised, as
-/// [`crate::scene::Scene::surface_point`] does); the other lanes' are not read.
+/// The shading normal of each lane of `lanes` (bit per lane) at its hit `x` on primitive `prim`:
+/// a triangle's interpolated from its vertex normals, a sphere's along x − centre, normalised
+/// (as [`crate::scene::Scene::surface_point`] does); the other lanes' are not read.
 #[inline(always)]
 fn interpolated_normals(smooth: &[Smooth], prim: &U, lanes: u32, x: &[F8; 3]) -> [F8; 3] {
     let (mut bary, mut vn) = ([[[0.0; L]; 4]; 2], [[[0.0; L]; 3]; 3]);
+    let mut spheres = 0u32;
     let mut left = lanes;
     while left != 0 {
         let l = left.trailing_zeros() as usize;
         left &= left - 1;
-        let s = &smooth[prim[l] as usize];
-        for k in 0..2 {
-            for a in 0..4 {
-                bary[k][a][l] = s.bary[k][a];
+        match &smooth[prim[l] as usize] {
+            Smooth::Triangle { bary: m, n } => {
+                for k in 0..2 {
+                    for a in 0..4 {
+                        bary[k][a][l] = m[k][a];
+                    }
+                }
+                for k in 0..3 {
+                    for a in 0..3 {
+                        vn[k][a][l] = n[k][a];
+                    }
+                }
             }
-        }
-        for k in 0..3 {
-            for a in 0..3 {
-                vn[k][a][l] = s.n[k][a];
-            }
+            Smooth::Sphere { .. } => spheres |= 1 << l,
         }
     }
     let b1 = aff(&bary[0], x, F8::load(&bary[0][3]));
@@ -1298,6 +1340,21 @@ fn interpolated_normals(smooth: &[Smooth], prim: &U, lanes: u32, x: &[F8; 3]) ->
     let mut n = [F8::splat(0.0); 3];
     for a in 0..3 {
         n[a] = F8::load(&vn[0][a]) + b1 * F8::load(&vn[1][a]) + b2 * F8::load(&vn[2][a]);
+    }
+    // A sphere's lanes: x − centre.
+    if spheres != 0 {
+        let (mut out, xs) = (n.map(F8::store), x.map(F8::store));
+        let mut left = spheres;
+        while left != 0 {
+            let l = left.trailing_zeros() as usize;
+            left &= left - 1;
+            if let Smooth::Sphere { center, sign } = &smooth[prim[l] as usize] {
+                for a in 0..3 {
+                    out[a][l] = (xs[a][l] - center[a]) * sign;
+                }
+            }
+        }
+        n = out.map(|a| F8::load(&a));
     }
     let len = dot(&n, &n).sqrt();
     for c in &mut n {
