@@ -99,10 +99,16 @@ def icosphere_mesh(path: Path, subdivisions: int = 4, center=(186, 255, 169), ra
     return str(nlos_rs.scenes.write_obj(path, np.array(v) * radius + np.array(center), np.array(f)))
 
 
-def cbox_with(out: Path, shape: str) -> str:
-    """mitransient's cbox_diffuse.xml with `shape` (XML) added, its file names made absolute."""
+def cbox_with(out: Path, shape: str = "", bsdfs: dict | None = None) -> str:
+    """mitransient's cbox_diffuse.xml with `shape` (XML) added and the BSDFs of the boxes named in
+    `bsdfs` ("smallbox", "largebox") replaced by the XML given, its file names made absolute."""
     path = Path(__file__).resolve().parent.parent / "tests" / "data" / "mitransient" / "cornell-box" / "cbox_diffuse.xml"
-    text = path.read_text().replace('value="meshes/', f'value="{path.parent / "meshes"}/')
+    text = path.read_text()
+    for box, bsdf in (bsdfs or {}).items():
+        old = f'value="meshes/cbox_{box}.obj"/>\n        <ref id="gray"/>'
+        assert old in text, box
+        text = text.replace(old, f'value="meshes/cbox_{box}.obj"/>{bsdf}')
+    text = text.replace('value="meshes/', f'value="{path.parent / "meshes"}/')
     out.write_text(text.replace("</scene>", shape + "\n</scene>"))
     return str(out)
 
@@ -265,6 +271,11 @@ def workloads(quick: bool):
                                            '<shape type="sphere"><point name="center" x="186" y="255" z="169"/>'
                                            '<float name="radius" value="90"/><ref id="white"/></shape>'),
                                  max(1, 256 // div), {"res": 64}), "mono"),
+        # The Cornell box with a mirror small box and a gold large box (smooth conductors).
+        "cbox_conductors": (lambda: (cbox_with(scenes.cache_dir() / "bench_cbox_conductors.xml", bsdfs={
+            "smallbox": '<bsdf type="conductor"/>',
+            "largebox": '<bsdf type="conductor"><string name="material" value="Au"/></bsdf>'}),
+            max(1, 256 // div), {"res": 64}), "mono"),
         "tal_confocal_file": (lambda: (str(data / "tal021" / "confocal.xml"), max(1, (1 << 19) // div)), "mono"),
         # Hidden-geometry sampling off, the default of mitransient's plugin and of tal's generator.
         "z_confocal_bsdf": (lambda: bsdf_sampling(z(4096, width=64, height=64, capture_type="confocal")), "mono"),

@@ -709,6 +709,25 @@ fn lockstep_agrees_with_the_scalar_tracer() {
         }),
         false,
     ));
+    cases.push((
+        "a mirror small box and a gold large box (conductors), rgb",
+        cbox(6, |t| {
+            let t = t
+                .replace(
+                    "value=\"meshes/cbox_smallbox.obj\"/>\n        <ref id=\"gray\"/>",
+                    "value=\"meshes/cbox_smallbox.obj\"/><bsdf type=\"conductor\"/>",
+                )
+                .replace(
+                    "value=\"meshes/cbox_largebox.obj\"/>\n        <ref id=\"gray\"/>",
+                    "value=\"meshes/cbox_largebox.obj\"/><bsdf type=\"conductor\">\
+                 <string name=\"material\" value=\"Au\"/>\
+                 <rgb name=\"specular_reflectance\" value=\"0.9, 0.8, 0.7\"/></bsdf>",
+                );
+            assert_eq!(t.matches("type=\"conductor\"").count(), 2);
+            t
+        }),
+        false,
+    ));
     std::fs::remove_file(&obj).expect("scratch file");
     std::fs::remove_file(&tri).expect("scratch file");
     std::fs::remove_file(&pane).expect("scratch file");

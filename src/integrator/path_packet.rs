@@ -183,7 +183,8 @@ struct Surface {
     /// Unit geometric normal (for an area light's density in solid angle).
     ng: [f32; 3],
     /// Diffuse reflectance of the front (the side the shading normal points to) and of the back;
-    /// for a `dielectric`, its specular reflectance and transmittance.
+    /// for a `dielectric`, its specular reflectance and transmittance; for a `conductor`, its
+    /// specular reflectance (front).
     albedo: [[f32; 3]; 2],
     /// It scatters on both sides (`twosided`); else a path that meets its back ends there.
     two_sided: bool,
@@ -191,6 +192,8 @@ struct Surface {
     /// Lambertian surface.
     dielectric: bool,
     eta: f32,
+    /// A smooth `conductor` (a mirror, one-sided) of complex index η + ik, as (η, k), instead.
+    conductor: Option<[[f32; 3]; 2]>,
     /// Plane key ([`PacketScene::plane`]).
     plane: f32,
     /// Index in `emitters` of the area light the triangle belongs to, or `u32::MAX`.
@@ -343,7 +346,7 @@ pub struct PathPacket<'a> {
     /// triangles only).
     smooth: Vec<Smooth>,
     mono: bool,
-    /// Some surface is glass.
+    /// Some surface is glass or a mirror (a delta: what `GLASS` compiles in).
     glass: bool,
 }
 
@@ -421,21 +424,28 @@ fn lane_surfaces(
                 (n, n, false, normals)
             }
         };
-        let (albedo, two_sided, eta) = match &bsdfs[shape] {
-            Bsdf::Diffuse(d) => ([d.reflectance.to_array(); 2], false, None),
+        let (albedo, two_sided, eta, conductor) = match &bsdfs[shape] {
+            Bsdf::Diffuse(d) => ([d.reflectance.to_array(); 2], false, None, None),
             Bsdf::TwoSided(t) => match (&*t.front, &*t.back) {
                 (Bsdf::Diffuse(f), Bsdf::Diffuse(b)) => (
                     [f.reflectance.to_array(), b.reflectance.to_array()],
                     true,
                     None,
+                    None,
                 ),
                 _ => return None,
             },
-            // (No light sample is taken on glass, nor found on it.)
+            // (No light sample is taken on glass or a mirror, nor found on it.)
             Bsdf::Dielectric(g) if emitter == u32::MAX => {
                 let tints = [g.specular_reflectance, g.specular_transmittance];
-                (tints.map(|t| t.to_array()), false, Some(g.eta))
+                (tints.map(|t| t.to_array()), false, Some(g.eta), None)
             }
+            Bsdf::Conductor(m) if emitter == u32::MAX => (
+                [m.specular_reflectance.to_array(); 2],
+                false,
+                None,
+                Some([m.eta.to_array(), m.k.to_array()]),
+            ),
             _ => return None,
         };
         smooth.push(normals);
@@ -447,6 +457,7 @@ fn lane_surfaces(
             two_sided,
             dielectric: eta.is_some(),
             eta: eta.unwrap_or(1.0),
+            conductor,
             plane: match &geometry {
                 Geometry::Packet(g) => g.plane(i as u32),
                 Geometry::Split(s) => s.packet.plane(i as u32),
@@ -541,7 +552,9 @@ impl<'a> PathPacket<'a> {
             .collect();
         *cdf.last_mut()? = 1.0;
         let st = &los.settings;
-        let glass = surfaces.iter().any(|s| s.dielectric);
+        let glass = surfaces
+            .iter()
+            .any(|s| s.dielectric || s.conductor.is_some());
         Some(Self {
             camera: &los.camera,
             rules: Rules {
@@ -620,7 +633,9 @@ impl<'a> PathPacket<'a> {
             last_leg: spot.last_leg,
             lit: radiance != Spectrum::ZERO && spot.incident != Spectrum::ZERO,
         };
-        let glass = surfaces.iter().any(|s| s.dielectric);
+        let glass = surfaces
+            .iter()
+            .any(|s| s.dielectric || s.conductor.is_some());
         Some(Self {
             camera,
             rules: Rules {
@@ -743,7 +758,7 @@ impl<'a> PathPacket<'a> {
             let (t, prim) = self.closest(&mut p.ray);
             // What each lane hit, gathered into lanes.
             let mut hit = Lanes::<C>::default();
-            let (mut curved, mut two_sided, mut glass) = (0, 0, 0);
+            let (mut curved, mut two_sided, mut glass, mut mirror) = (0, 0, 0, 0);
             let mut ior = [1.0; L];
             for l in 0..L {
                 if prim[l] == u32::MAX {
@@ -769,6 +784,7 @@ impl<'a> PathPacket<'a> {
                 curved |= (s.curved as u32) << l;
                 two_sided |= (s.two_sided as u32) << l;
                 glass |= ((GLASS && s.dielectric) as u32) << l;
+                mirror |= ((GLASS && s.conductor.is_some()) as u32) << l;
             }
             let tv = F8::load(&t);
             let o = p.ray.o.each_ref().map(F8::load);
@@ -886,8 +902,10 @@ impl<'a> PathPacket<'a> {
             let cos_o = dot(&n, &w);
             let bsdf_pdf = cos_o * b(FRAC_1_PI);
             // (Glass, a delta, connects to nothing.)
-            let mut lights =
-                alive & M8::from_bits(connects & !glass) & cos_l.gt(b(0.0)) & cos_o.gt(b(0.0));
+            let mut lights = alive
+                & M8::from_bits(connects & !(glass | mirror))
+                & cos_l.gt(b(0.0))
+                & cos_o.gt(b(0.0));
             let weight = if spot.is_some() {
                 // The spot: f·cos_o·cos_l / r² (a vertex on the spot's own plane sees it at a
                 // grazing angle, as rounding makes it: nothing).
@@ -949,7 +967,7 @@ impl<'a> PathPacket<'a> {
             // the Fresnel probability with the BSDF's first number) its tint and scale.
             let mut weight = albedo;
             if GLASS {
-                p.delta = glass;
+                p.delta = glass | mirror;
             }
             if GLASS && glass & p.alive != 0 {
                 let g = M8::from_bits(glass);
@@ -962,6 +980,17 @@ impl<'a> PathPacket<'a> {
                     weight[c] = F8::select(g, tint * s.scale, weight[c]);
                 }
                 p.eta = (F8::load(&p.eta) * F8::select(g, s.eta, b(1.0))).store();
+            }
+            if GLASS && mirror & p.alive != 0 {
+                self.reflect(
+                    mirror & p.alive,
+                    &prim,
+                    &n,
+                    &d,
+                    &cos_i,
+                    &mut p.ray.d,
+                    &mut weight,
+                );
             }
             let beta: [F8; C] = std::array::from_fn(|c| beta[c] * weight[c]);
             // Russian roulette weighs β by η² (the radiance scaling of refraction does not end a
@@ -1117,6 +1146,42 @@ impl PathPacket<'_> {
             area_pdf: F8::load(&area_pdf),
             emitter,
         }
+    }
+
+    /// The mirror reflection of the lanes `lanes` (bit per lane, on `conductor`s, met at the
+    /// cosines `cos_i` on the front of their normals `n` by the directions `d`): the new
+    /// directions into `dir`, and the Fresnel reflectance times the specular reflectance into
+    /// `weight` ([`crate::bsdf::Conductor::sample`]).
+    #[inline(never)]
+    fn reflect<const C: usize>(
+        &self,
+        lanes: u32,
+        prim: &U,
+        n: &[F8; 3],
+        d: &[F8; 3],
+        cos_i: &F,
+        dir: &mut [F; 3],
+        weight: &mut [F8; C],
+    ) {
+        let (n, d) = (n.map(F8::store), d.map(F8::store));
+        let mut w = weight.map(F8::store);
+        let mut left = lanes;
+        while left != 0 {
+            let l = left.trailing_zeros() as usize;
+            left &= left - 1;
+            let s = &self.surfaces[prim[l] as usize];
+            let Some([eta, k]) = s.conductor else {
+                continue;
+            };
+            let f = crate::bsdf::fresnel::conductor(cos_i[l], eta.into(), k.into());
+            for a in 0..3 {
+                dir[a][l] = d[a][l] + 2.0 * cos_i[l] * n[a][l];
+            }
+            for c in 0..C {
+                w[c][l] = f[c] * s.albedo[0][c];
+            }
+        }
+        *weight = w.map(|c| F8::load(&c));
     }
 
     /// `angulararea` lights' falloff on the light samples `lit` of the lanes in `lights`, which
