@@ -982,15 +982,13 @@ impl<'a> PathPacket<'a> {
                 p.eta = (F8::load(&p.eta) * F8::select(g, s.eta, b(1.0))).store();
             }
             if GLASS && mirror & p.alive != 0 {
-                self.reflect(
-                    mirror & p.alive,
-                    &prim,
-                    &n,
-                    &d,
-                    &cos_i,
-                    &mut p.ray.d,
-                    &mut weight,
-                );
+                // A mirror reflects about its normal.
+                let (m, c2) = (M8::from_bits(mirror), F8::load(&cos_i) * b(2.0));
+                for a in 0..3 {
+                    let r = n[a].mul_add(c2, d[a]);
+                    p.ray.d[a] = F8::select(m, r, F8::load(&p.ray.d[a])).store();
+                }
+                self.mirror_weights(mirror & p.alive, &prim, &cos_i, &mut weight);
             }
             let beta: [F8; C] = std::array::from_fn(|c| beta[c] * weight[c]);
             // Russian roulette weighs β by η² (the radiance scaling of refraction does not end a
@@ -1148,22 +1146,17 @@ impl PathPacket<'_> {
         }
     }
 
-    /// The mirror reflection of the lanes `lanes` (bit per lane, on `conductor`s, met at the
-    /// cosines `cos_i` on the front of their normals `n` by the directions `d`): the new
-    /// directions into `dir`, and the Fresnel reflectance times the specular reflectance into
-    /// `weight` ([`crate::bsdf::Conductor::sample`]).
+    /// The weights of the mirror reflections of the lanes `lanes` (bit per lane, on the
+    /// `conductor`s `prim`, met at the cosines `cos_i`): the Fresnel reflectance times the
+    /// specular reflectance ([`crate::bsdf::conductor::Conductor::sample`]), into `weight`.
     #[inline(never)]
-    fn reflect<const C: usize>(
+    fn mirror_weights<const C: usize>(
         &self,
         lanes: u32,
         prim: &U,
-        n: &[F8; 3],
-        d: &[F8; 3],
         cos_i: &F,
-        dir: &mut [F; 3],
         weight: &mut [F8; C],
     ) {
-        let (n, d) = (n.map(F8::store), d.map(F8::store));
         let mut w = weight.map(F8::store);
         let mut left = lanes;
         while left != 0 {
@@ -1174,9 +1167,6 @@ impl PathPacket<'_> {
                 continue;
             };
             let f = crate::bsdf::fresnel::conductor(cos_i[l], eta.into(), k.into());
-            for a in 0..3 {
-                dir[a][l] = d[a][l] + 2.0 * cos_i[l] * n[a][l];
-            }
             for c in 0..C {
                 w[c][l] = f[c] * s.albedo[0][c];
             }
