@@ -1,6 +1,7 @@
 //! Paths traced eight at a time, in lockstep lanes, for the scenes they are most run on — a few
-//! dozen flat triangles, every surface Lambertian (`diffuse`, or a `twosided` pair) or smooth glass
-//! (`dielectric`): the line-of-sight path tracer of [`super::path`] lit by area lights (a Cornell
+//! dozen flat triangles (and meshes, spheres and disks beside them: [`Split`]), every surface
+//! Lambertian (`diffuse`, or a `twosided` pair), smooth glass (`dielectric`) or a smooth mirror
+//! (`conductor`): the line-of-sight path tracer of [`super::path`] lit by area lights (a Cornell
 //! box), and the NLOS tracer of [`super::nlos`] where a camera finds each path's first vertex and
 //! laser sampling connects every vertex to the laser spot, hidden-geometry sampling off
 //! (mitransient's camera files). Each lane is one sample of the same pixel; the lanes advance a
@@ -8,8 +9,8 @@
 //! once, so the lanes stay full until the pixel's last samples. The rays of the lanes are traced
 //! together, eight to a vector ([`crate::geometry::ray_packet`]), and the steps between them are
 //! branch-free arithmetic on eight lanes ([`crate::simd::F8`], AVX2 picked at run time): light
-//! sampling (a light part, or the laser spot as a part of one point), cosine-weighted BSDF sampling
-//! and the glass's Fresnel choice, multiple importance sampling and Russian roulette, and the camera
+//! sampling (a light part, or the laser spot as a part of one point), cosine-weighted BSDF sampling,
+//! the glass's Fresnel choice and the mirror's reflection, multiple importance sampling and Russian roulette, and the camera
 //! rays of the lanes that begin a sample. Only the film's splats and the gathers of what a lane hit
 //! (its normal, albedo, plane and emitter) and of the light part it chose (where the lights are
 //! more than one) are made lane by lane.
