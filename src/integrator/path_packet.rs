@@ -10,8 +10,8 @@
 //! together, eight to a vector ([`crate::geometry::ray_packet`]), and the steps between them are
 //! branch-free arithmetic on eight lanes ([`crate::simd::F8`], AVX2 picked at run time): light
 //! sampling (a light part, or the laser spot as a part of one point), cosine-weighted BSDF sampling,
-//! the glass's Fresnel choice and the mirror's reflection, multiple importance sampling and Russian roulette, and the camera
-//! rays of the lanes that begin a sample. Only the film's splats and the gathers of what a lane hit
+//! the glass's Fresnel choice and the mirror's reflection, multiple importance sampling and
+//! Russian roulette, and the camera rays of the lanes that begin a sample. Only the film's splats and the gathers of what a lane hit
 //! (its normal, albedo, plane and emitter) and of the light part it chose (where the lights are
 //! more than one) are made lane by lane.
 //!
@@ -23,9 +23,9 @@
 //!   sample is a hash of its key and d, so a lane's numbers do not depend on the other lanes.
 //! - **Rays start on the surface** and skip the triangles of its plane, and a shadow ray those of
 //!   its light point's plane, instead of being offset off them ([`crate::geometry::ray_packet`]).
-//!   Line-of-sight scenes of more triangles than the packet test takes (a mesh in a Cornell box)
-//!   trace each lane's ray through the scene's tree instead, offset off its surface as the scalar
-//!   tracer's rays are ([`Geometry::Tree`]); the rest of the bounce stays in lanes.
+//!   Scenes of more triangles than the packet test takes, or with spheres and disks (a mesh in a
+//!   Cornell box), trace those in a tree beside it, each lane's ray alone and offset off their
+//!   surfaces as the scalar tracer's rays are ([`Split`]); the rest of the bounce stays in lanes.
 //!
 //! Results are the same whatever the thread count: a pixel's samples are traced in one task, in
 //! the same lanes, in the same order. Renders that keep per-sample values (variance, adaptive
@@ -72,9 +72,10 @@ const ROULETTE: u32 = 7;
 type F = [f32; L];
 type U = [u32; L];
 
-/// Most triangles of a line-of-sight scene the lanes take in two parts ([`Geometry::Split`]):
-/// each has a [`Surface`] and a [`Smooth`] (about 140 bytes).
-pub const MAX_SPLIT_TRIANGLES: usize = 1 << 20;
+/// Most primitives of a scene the lanes take in two parts ([`Geometry::Split`]): each has a
+/// [`Surface`] and a [`Smooth`], and a primitive of the tree a copy and its own tree nodes (about
+/// 350 bytes in all: 90 MB at most); a bigger scene takes the scalar tracers.
+pub const MAX_SPLIT_PRIMITIVES: usize = 1 << 18;
 
 /// What the lanes' rays meet.
 #[derive(Clone)]
@@ -86,18 +87,19 @@ enum Geometry {
     Split(Arc<Split>),
 }
 
-/// A scene of more triangles than the packet test takes, in two parts: its smallest shapes'
-/// triangles, up to [`crate::geometry::ray_packet::MAX_TRIANGLES`] (a room's walls, a Cornell
-/// box's boxes), tested against the eight rays at once, and the rest (the meshes) in a tree of
-/// their own, through which each lane's ray goes alone and no farther than its packet hit. A ray
-/// leaving a triangle of the tree starts off it, offset along its geometric normal as the scalar
-/// tracer's rays are, and such a triangle's plane key is its own index.
+/// A scene of more triangles than the packet test takes, or with spheres and disks, in two parts:
+/// its smallest shapes of triangles, up to [`crate::geometry::ray_packet::MAX_TRIANGLES`] (a
+/// room's walls, a Cornell box's boxes), tested against the eight rays at once, and the rest
+/// (meshes, spheres, disks) in a tree of their own, through which each lane's ray goes alone and
+/// no farther than its packet hit. A ray leaving a primitive of the tree starts off it, offset
+/// along its geometric normal as the scalar tracer's rays are, and such a primitive's plane key is
+/// its own index.
 struct Split {
     packet: PacketScene,
     tree: Accel,
-    /// The scene's index of each of the tree's triangles.
+    /// The scene's index of each of the tree's primitives.
     tree_prims: Vec<u32>,
-    /// Per scene triangle, whether the tree holds it, and its shape.
+    /// Per scene primitive, whether the tree holds it, and its shape.
     in_tree: Vec<bool>,
     prim_shape: Vec<u32>,
     /// The tree's bounding box, padded (low and high corners): most rays of a room pass it by,
@@ -106,11 +108,11 @@ struct Split {
 }
 
 impl Split {
-    /// `scene` in two parts (at most [`MAX_SPLIT_TRIANGLES`] primitives; spheres and disks go
-    /// in the tree).
+    /// `scene` in two parts (at most [`MAX_SPLIT_PRIMITIVES`]; spheres and disks go in the
+    /// tree).
     fn new(scene: &Scene) -> Option<Self> {
         let n = scene.prims.len();
-        if n > MAX_SPLIT_TRIANGLES {
+        if n > MAX_SPLIT_PRIMITIVES {
             return None;
         }
         // The packet takes whole shapes, fewest triangles first, while they fit.
@@ -176,7 +178,7 @@ impl Split {
     }
 }
 
-/// What a lane needs of the triangle it hit.
+/// What a lane needs of the primitive it hit.
 #[derive(Clone, Copy, Debug)]
 struct Surface {
     /// Unit shading normal (`flip_normals` applied).
@@ -351,14 +353,14 @@ pub struct PathPacket<'a> {
     glass: bool,
 }
 
-/// The triangles of a scene as lanes read them: the geometry, each triangle's surface and its
-/// vertex normals.
+/// The primitives of a scene as lanes read them: the geometry, each one's surface and normals.
 type LaneSurfaces = (Geometry, Vec<Surface>, Vec<Smooth>);
 
-/// The lockstep form of `scene`'s triangles, if its every primitive is a triangle (at most
-/// [`crate::geometry::ray_packet::MAX_TRIANGLES`], or with `split` [`MAX_SPLIT_TRIANGLES`]) and
-/// its every BSDF `diffuse`, a `twosided` pair of them or a smooth `dielectric` (not emitting);
-/// `shape_emitter`: per shape, the index of its area light or `u32::MAX`.
+/// The lockstep form of `scene`'s primitives, if they are at most
+/// [`crate::geometry::ray_packet::MAX_TRIANGLES`] triangles or, with `split`, at most
+/// [`MAX_SPLIT_PRIMITIVES`] triangles, spheres and disks (lights on triangles only), and its every
+/// BSDF `diffuse`, a `twosided` pair of them, or a smooth `dielectric` or `conductor` (not
+/// emitting); `shape_emitter`: per shape, the index of its area light or `u32::MAX`.
 fn lane_surfaces(
     scene: &Scene,
     shape_emitter: &[u32],
