@@ -198,13 +198,7 @@ fn lockstep_through_the_tree_agrees_with_the_scalar_tracer() {
         ),
     ];
     std::fs::remove_file(&obj).expect("scratch file");
-    for (name, scene, mono) in &cases {
-        assert!(
-            PathPacket::new(scene, los(scene), *mono).is_some() || !nlos_rs::simd::available(),
-            "{name}: not lockstep"
-        );
-        agrees_with_the_scalar_tracer(name, scene, *mono);
-    }
+    los_cases_agree(&cases);
 }
 
 /// The lane forms of both samplers at the points `u`.
@@ -691,47 +685,33 @@ fn lockstep_agrees_with_the_scalar_tracer() {
     ));
     cases.push((
         "boxes of glass (bk7, and water tinted), rgb",
-        cbox(6, |t| {
-            glazed(
-                t.replace(
-                    "value=\"meshes/cbox_smallbox.obj\"/>\n        <ref id=\"gray\"/>",
-                    "value=\"meshes/cbox_smallbox.obj\"/><bsdf type=\"dielectric\"/>",
-                )
-                .replace(
-                    "value=\"meshes/cbox_largebox.obj\"/>\n        <ref id=\"gray\"/>",
-                    "value=\"meshes/cbox_largebox.obj\"/><bsdf type=\"dielectric\">\
-                 <string name=\"int_ior\" value=\"water\"/>\
-                 <rgb name=\"specular_transmittance\" value=\"0.9, 0.6, 0.4\"/>\
-                 <rgb name=\"specular_reflectance\" value=\"0.5, 0.8, 1.0\"/></bsdf>",
-                ),
-                2,
-            )
-        }),
+        cbox_boxes(
+            "<bsdf type=\"dielectric\"/>",
+            "<bsdf type=\"dielectric\"><string name=\"int_ior\" value=\"water\"/>\
+             <rgb name=\"specular_transmittance\" value=\"0.9, 0.6, 0.4\"/>\
+             <rgb name=\"specular_reflectance\" value=\"0.5, 0.8, 1.0\"/></bsdf>",
+        ),
         false,
     ));
     cases.push((
         "a mirror small box and a gold large box (conductors), rgb",
-        cbox(6, |t| {
-            let t = t
-                .replace(
-                    "value=\"meshes/cbox_smallbox.obj\"/>\n        <ref id=\"gray\"/>",
-                    "value=\"meshes/cbox_smallbox.obj\"/><bsdf type=\"conductor\"/>",
-                )
-                .replace(
-                    "value=\"meshes/cbox_largebox.obj\"/>\n        <ref id=\"gray\"/>",
-                    "value=\"meshes/cbox_largebox.obj\"/><bsdf type=\"conductor\">\
-                 <string name=\"material\" value=\"Au\"/>\
-                 <rgb name=\"specular_reflectance\" value=\"0.9, 0.8, 0.7\"/></bsdf>",
-                );
-            assert_eq!(t.matches("type=\"conductor\"").count(), 2);
-            t
-        }),
+        cbox_boxes(
+            "<bsdf type=\"conductor\"/>",
+            "<bsdf type=\"conductor\"><string name=\"material\" value=\"Au\"/>\
+             <rgb name=\"specular_reflectance\" value=\"0.9, 0.8, 0.7\"/></bsdf>",
+        ),
         false,
     ));
     std::fs::remove_file(&obj).expect("scratch file");
     std::fs::remove_file(&tri).expect("scratch file");
     std::fs::remove_file(&pane).expect("scratch file");
-    for (name, scene, mono) in &cases {
+    los_cases_agree(&cases);
+}
+
+/// Assert that each line-of-sight scene of `cases` (name, scene, mono) takes the lanes and that
+/// their renders agree with the scalar tracer's ([`agrees_with_the_scalar_tracer`]).
+fn los_cases_agree(cases: &[(&str, Scene, bool)]) {
+    for (name, scene, mono) in cases {
         assert!(
             PathPacket::new(scene, los(scene), *mono).is_some() || !nlos_rs::simd::available(),
             "{name}: not lockstep"
@@ -757,6 +737,19 @@ fn agrees_with_the_scalar_tracer(name: &str, scene: &Scene, mono: bool) {
         assert_eq!(one.transient, other.transient, "{name}: {threads} threads");
         assert_eq!(one.steady, other.steady, "{name}: {threads} threads");
     }
+}
+
+/// mitransient's Cornell box (6×6 pixels) with the BSDFs of its small and large boxes replaced
+/// by `small` and `large` (XML).
+fn cbox_boxes(small: &str, large: &str) -> Scene {
+    cbox(6, |t| {
+        let was =
+            |name: &str| format!("value=\"meshes/cbox_{name}.obj\"/>\n        <ref id=\"gray\"/>");
+        let now = |name: &str, bsdf: &str| format!("value=\"meshes/cbox_{name}.obj\"/>{bsdf}");
+        assert!(t.contains(&was("smallbox")) && t.contains(&was("largebox")));
+        t.replace(&was("smallbox"), &now("smallbox", small))
+            .replace(&was("largebox"), &now("largebox", large))
+    })
 }
 
 /// `text` with `count` dielectric BSDFs in it (a test's edit took).
