@@ -175,6 +175,11 @@ def tal_example(out_dir: Path, example: str) -> str:
     return str(out)
 
 
+# Seconds each timed render waits before it starts, so that the other renderer's threads have
+# gone idle.
+SETTLE_S = 0.2
+
+
 def workloads(quick: bool):
     """name → (a function making the scene dict, variant); scenes are made only when run."""
     import nlos_rs
@@ -449,7 +454,12 @@ def main() -> None:
         theirs()
         to, tt = [], []
         for _ in range(args.repeats):
+            # Each render after a pause: mitransient's worker threads spin on for a while after
+            # its render returns and would take the cores from ours (short renders lost up to a
+            # fifth of their speed), and the pause before its own render is the same.
+            time.sleep(SETTLE_S)
             to.append(ours())
+            time.sleep(SETTLE_S)
             tt.append(theirs())
         mo, mt = min(to), min(tt)
         rows.append((name, paths, paths / mo / 1e6, paths / mt / 1e6, mt / mo, scaling, scaling_total, scaling_paired, busy))
