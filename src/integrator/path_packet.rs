@@ -798,7 +798,8 @@ impl<'a> PathPacket<'a> {
                 d[2].mul_add(tv, o[2]),
             ];
             let mut n = hit.n.each_ref().map(F8::load);
-            // Lanes on triangles whose vertex normals differ take the interpolated normal.
+            // Lanes on triangles whose vertex normals differ, and on spheres, take the normal at
+            // their hit.
             if curved != 0 {
                 let ni = interpolated_normals(&self.smooth, &prim, curved, &x);
                 let m = M8::from_bits(curved);
@@ -1028,8 +1029,8 @@ impl PathPacket<'_> {
         }
     }
 
-    /// Each ray's closest hit, distance and triangle (`u32::MAX` for none). In a [`Split`]
-    /// scene, a ray leaving a triangle of the tree starts off it ([`offset_origin`]; its origin
+    /// Each ray's closest hit, distance and primitive (`u32::MAX` for none). In a [`Split`]
+    /// scene, a ray leaving a primitive of the tree starts off it ([`offset_origin`]; its origin
     /// in `ray` is moved there), and the packet's closest hit bounds its way through the tree.
     #[inline(always)]
     fn closest(&self, ray: &mut Packet) -> (F, U) {
@@ -1083,7 +1084,7 @@ impl PathPacket<'_> {
             left &= left - 1;
             let x = Vec3A::new(r.o[0][l], r.o[1][l], r.o[2][l]);
             let d = Vec3A::new(r.d[0][l], r.d[1][l], r.d[2][l]);
-            // (A plane key is a triangle of that plane, or the tree's triangle itself.)
+            // (A plane key is a triangle of that plane, or the tree's primitive itself.)
             let (from, to) = (r.skip[0][l] as usize, r.skip[1][l] as usize);
             let (o, w, tmax) = segment_from(x, self.geometric_normal(from, x), x + d * r.tmax[l]);
             if !split.may_meet_tree(o, w, 0.0, tmax) {
