@@ -29,6 +29,23 @@ def test_cornell_box_matches_mitransient(peer):
 
 
 @pytest.mark.peer
+def test_cornell_box_with_a_sphere_and_a_gold_box_matches_mitransient(peer):
+    """The lockstep lanes' tree part (an analytic sphere on the small box) and their mirrors (the
+    large box a smooth gold conductor) against mitransient's transient_path."""
+    d = nlos_rs.scenes.cornell_box(width=16, height=16, spp=512)
+    d["ball"] = {"type": "sphere", "center": [0.335, -0.15, 0.38], "radius": 0.25, "bsdf": {"type": "ref", "id": "white"}}
+    d["large-box"]["bsdf"] = {"type": "conductor", "material": "Au"}
+    ours = [nlos_rs.render(d, seed=k, progress=False) for k in range(REPS)]
+    theirs = [render_mitransient(d, spp=512, seed=k)[:2] for k in range(REPS)]
+    fo = features(np.array([s[..., 0] for s, _ in ours]), np.array([t[..., 0] for _, t in ours]))
+    ft = features(np.array([s[..., 0] for s, _ in theirs]), np.array([t[..., 0] for _, t in theirs]))
+    res = agreement(fo, ft)
+    r, se = ratio_with_error(np.array([s.sum() for s, _ in ours]), np.array([s.sum() for s, _ in theirs]))
+    print(f"\nCornell box, sphere and gold box vs mitransient: steady ratio {r:.4f} ± {se:.4f}; {res}")
+    assert res["agree"] and abs(r - 1) < 4 * se
+
+
+@pytest.mark.peer
 def test_steady_image_matches_mitsuba_path_on_mi_cornell_box(peer):
     """Mitsuba's own mi.cornell_box() with its steady `path` integrator (box pixel filter, so the
     pixel integrals match) against nlos_rs on to_transient(mi.cornell_box())."""
