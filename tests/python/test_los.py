@@ -15,17 +15,22 @@ def features(steady, transient):
     return np.concatenate([steady.reshape(len(steady), -1), rebin(transient.sum((1, 2)), 8, -1)], axis=1)
 
 
-@pytest.mark.peer
-def test_cornell_box_matches_mitransient(peer):
-    d = nlos_rs.scenes.cornell_box(width=16, height=16, spp=512)
+def matches_mitransient(d, what):
+    """Renders of the scene dict `d` (512 spp, REPS seeds) agree with mitransient's transient_path
+    per feature and in their steady totals."""
     ours = [nlos_rs.render(d, seed=k, progress=False) for k in range(REPS)]
     theirs = [render_mitransient(d, spp=512, seed=k)[:2] for k in range(REPS)]
     fo = features(np.array([s[..., 0] for s, _ in ours]), np.array([t[..., 0] for _, t in ours]))
     ft = features(np.array([s[..., 0] for s, _ in theirs]), np.array([t[..., 0] for _, t in theirs]))
     res = agreement(fo, ft)
     r, se = ratio_with_error(np.array([s.sum() for s, _ in ours]), np.array([s.sum() for s, _ in theirs]))
-    print(f"\nCornell box vs mitransient transient_path: steady ratio {r:.4f} ± {se:.4f}; {res}")
+    print(f"\n{what} vs mitransient transient_path: steady ratio {r:.4f} ± {se:.4f}; {res}")
     assert res["agree"] and abs(r - 1) < 4 * se
+
+
+@pytest.mark.peer
+def test_cornell_box_matches_mitransient(peer):
+    matches_mitransient(nlos_rs.scenes.cornell_box(width=16, height=16, spp=512), "Cornell box")
 
 
 @pytest.mark.peer
@@ -35,14 +40,7 @@ def test_cornell_box_with_a_sphere_and_a_gold_box_matches_mitransient(peer):
     d = nlos_rs.scenes.cornell_box(width=16, height=16, spp=512)
     d["ball"] = {"type": "sphere", "center": [0.335, -0.15, 0.38], "radius": 0.25, "bsdf": {"type": "ref", "id": "white"}}
     d["large-box"]["bsdf"] = {"type": "conductor", "material": "Au"}
-    ours = [nlos_rs.render(d, seed=k, progress=False) for k in range(REPS)]
-    theirs = [render_mitransient(d, spp=512, seed=k)[:2] for k in range(REPS)]
-    fo = features(np.array([s[..., 0] for s, _ in ours]), np.array([t[..., 0] for _, t in ours]))
-    ft = features(np.array([s[..., 0] for s, _ in theirs]), np.array([t[..., 0] for _, t in theirs]))
-    res = agreement(fo, ft)
-    r, se = ratio_with_error(np.array([s.sum() for s, _ in ours]), np.array([s.sum() for s, _ in theirs]))
-    print(f"\nCornell box, sphere and gold box vs mitransient: steady ratio {r:.4f} ± {se:.4f}; {res}")
-    assert res["agree"] and abs(r - 1) < 4 * se
+    matches_mitransient(d, "Cornell box, sphere and gold box")
 
 
 @pytest.mark.peer
