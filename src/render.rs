@@ -1233,6 +1233,7 @@ impl<'a, T: Tracer> Sampling<'a, T> {
                                             pixel,
                                             x,
                                             light.as_ref(),
+                                            pixel_rng,
                                             &mut |s| {
                                                 self.deposit(
                                                     &s,

@@ -466,6 +466,37 @@ fn sample_reuse_takes_delta_surfaces_that_no_path_leaves() {
 }
 
 #[test]
+fn sample_reuse_carries_hidden_glass() {
+    // A glass cube before the two rectangles: light subpaths refract through it and each pixel
+    // traces the paths whose vertex after its scan point lies on it; each scan point's total
+    // agrees with one path per scan point across 12 seeds.
+    let with_glass = |extra: Vec<(&str, Value)>| {
+        let mut p = scene_props(extra, vec![]);
+        let m = DMat4::from_translation(DVec3::new(0.1, 0.0, 0.6))
+            * DMat4::from_scale(DVec3::splat(0.15));
+        p.insert(
+            "glass",
+            obj(
+                "cube",
+                vec![
+                    ("to_world", Value::Matrix(m)),
+                    ("bsdf", obj("dielectric", vec![])),
+                ],
+            ),
+        )
+        .unwrap();
+        load(&p)
+    };
+    let shared = with_glass(vec![]);
+    let per_point = with_glass(vec![("nlos_sample_reuse", Value::Bool(false))]);
+    assert!(nlos_rs::integrator::shares_samples(&shared));
+    agree(
+        &totals(&shared, 4096, 0..12),
+        &totals(&per_point, 4096, 100..112),
+    );
+}
+
+#[test]
 fn hidden_geometry_sampling_sees_the_back_of_two_sided_surfaces() {
     // The scene plus a two-sided diffuse rectangle whose normal points away from the relay wall
     // (only its back is seen), direct light only: hidden-geometry sampling, with and without

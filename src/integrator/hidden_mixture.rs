@@ -68,7 +68,9 @@ impl NlosTracer<'_> {
     /// integral. On a path from a scan point (`from_light` false) the step is `from` → y, f is
     /// `from`'s BSDF from `back` towards y and θ is at y. On a light subpath (`from_light`) it is
     /// the same step seen from the light's end: the edge runs y → `from` (y on the scan points'
-    /// side), f is `from`'s BSDF from y towards the light and θ is at `from`.
+    /// side), f is `from`'s BSDF from y towards the light and θ is at `from`. With `onto_delta`
+    /// the step ends unless y lies on a surface whose BSDF is all delta (a delta prefix's step,
+    /// `sample_reuse::delta_prefix`).
     #[inline]
     pub(super) fn mixture_step(
         &self,
@@ -76,10 +78,14 @@ impl NlosTracer<'_> {
         from: &Interaction,
         back: Vec3A,
         from_light: bool,
+        onto_delta: bool,
         rng: &mut Sampler,
     ) -> Option<Step> {
         let area = hg.total_area();
         let (y, drawn) = self.mixture_draw(hg, from, back, rng)?;
+        if onto_delta && !self.delta[y.shape as usize].0 {
+            return None;
+        }
         // The edge from the scan points' side.
         let (near, far) = if from_light { (&y, from) } else { (from, &y) };
         let e = self

@@ -159,12 +159,14 @@ pub trait Tracer: Sync {
     }
 
     /// Pass the contributions of one light sample (`light`, possibly empty) to pixel `pixel`
-    /// through its first vertex `x` ([`Self::pixel_vertex`]).
+    /// through its first vertex `x` ([`Self::pixel_vertex`]), with what the pixel draws for the
+    /// sample taken from its stream `rng` (after the tile's first vertex).
     fn connect_light(
         &self,
         _pixel: usize,
         _x: &Vertex,
         _light: Option<&Self::Light>,
+        _rng: &mut Sampler,
         _out: &mut impl FnMut(Splat),
     ) {
     }

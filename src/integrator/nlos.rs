@@ -236,6 +236,10 @@ pub struct NlosTracer<'a> {
     pub(super) hidden: Option<&'a AreaSampler>,
     /// The distribution of a shared light subpath's first hidden vertex, if guided.
     pub(super) guide: Option<Guide>,
+    /// In a render that shares light subpaths, the hidden surfaces whose BSDF is all delta
+    /// (glass, mirrors) and their share of the hidden area, if any: the paths whose vertex after
+    /// the first lies there are traced from each pixel (`sample_reuse::delta_prefix`).
+    pub(super) delta_hidden: Option<(AreaSampler, f32)>,
     /// The render in lockstep lanes, where the scene allows ([`PathPacket::nlos`]).
     packet: Option<PathPacket<'a>>,
 }
@@ -299,8 +303,16 @@ impl<'a> NlosTracer<'a> {
             cancel,
             hidden,
             guide: None,
+            delta_hidden: None,
             packet: None,
         };
+        if let (Some(_), Some(hg)) = (shared_spp, hidden) {
+            tracer.delta_hidden =
+                AreaSampler::new(scene, |s| hg.covers(s as u32) && tracer.delta[s].0).map(|dh| {
+                    let share = dh.total_area() / hg.total_area();
+                    (dh, share)
+                });
+        }
         if lockstep {
             tracer.packet = PathPacket::nlos(scene, nlos, &tracer.scan.capture.spots, mono);
         }
@@ -475,19 +487,18 @@ impl<'a> NlosTracer<'a> {
         self.scan.clear.seen_from_scan_points(y) || self.scene.visible_to(x, y)
     }
 
-    /// One hidden-geometry draw from `x` (mitransient-model §3.3) with the visibility test
-    /// mitransient lacks: an invalid or occluded draw is a zero-valued sample of the area integral.
-    /// The weight is f·A_total·cosθ_y/r².
+    /// The step from `x` to `y`, a hidden-geometry draw (mitransient-model §3.3; density 1/A over
+    /// `hg`), with the visibility test mitransient lacks: an invalid or occluded draw is a
+    /// zero-valued sample of the area integral. The weight is f·A_total·cosθ_y/r².
     #[inline]
     fn hidden_candidate(
         &self,
         hg: &AreaSampler,
+        y: Interaction,
         x: &Interaction,
         wi: Vec3A,
         from_scan_point: bool,
-        rng: &mut Sampler,
     ) -> Option<Step> {
-        let y = hg.sample(self.scene, rng);
         let e = self.hidden_edge(x, &y, hg.total_area())?;
         let f = self.bsdf(x).eval(x.ns, wi, e.w)?;
         let visible = if from_scan_point {
@@ -706,6 +717,14 @@ impl<'a> NlosTracer<'a> {
         self.hidden_at(depth).filter(|_| !some_delta)
     }
 
+    /// A delta prefix's first hidden vertex: drawn as hidden-geometry sampling draws it (density
+    /// 1/A over all hidden surfaces), kept only where it lands on one whose BSDF is all delta.
+    #[inline]
+    fn delta_draw(&self, rng: &mut Sampler) -> Option<Interaction> {
+        let (dh, share) = self.delta_hidden.as_ref()?;
+        (rng.next_1d() < *share).then(|| dh.sample(self.scene, rng))
+    }
+
     /// [`Self::first_vertex`] with a camera (out of line: the scan points' case stays small
     /// where it is inlined).
     #[inline(never)]
@@ -757,9 +776,9 @@ impl<'a> NlosTracer<'a> {
 /// A `transient_nlos_path` path between bounces: its pixel, the loop depth and, past the first
 /// vertex, the vertex it is at.
 pub struct NlosPath {
-    pixel: usize,
-    at: Option<Vertex>,
-    depth: u32,
+    pub(super) pixel: usize,
+    pub(super) at: Option<Vertex>,
+    pub(super) depth: u32,
 }
 
 impl Tracer for NlosTracer<'_> {
@@ -815,7 +834,7 @@ impl Tracer for NlosTracer<'_> {
 
     #[inline]
     fn bounce(&self, path: &mut NlosPath, rng: &mut Sampler, out: &mut impl FnMut(Splat)) -> bool {
-        NlosTracer::bounce(self, path, rng, out)
+        NlosTracer::bounce::<false>(self, path, rng, out)
     }
 
     fn packet(&self) -> Option<&PathPacket<'_>> {
@@ -855,21 +874,32 @@ impl Tracer for NlosTracer<'_> {
         pixel: usize,
         x: &Vertex,
         light: Option<&Self::Light>,
+        rng: &mut Sampler,
         out: &mut impl FnMut(Splat),
     ) {
-        NlosTracer::connect_light(self, pixel, x, light, out)
+        NlosTracer::connect_light(self, pixel, x, light, rng, out)
     }
 }
 
 impl NlosTracer<'_> {
     /// One bounce of a path (mitransient-model §3.2–3.3): emitter sampling at its vertex, then the
-    /// next vertex; false once the path has ended.
+    /// next vertex; false once the path has ended. With `DELTA_PREFIX` the path is one of a
+    /// shared render's delta prefixes (`sample_reuse::delta_prefix`): it starts at its given first
+    /// vertex, whose connections the pixel has made, and goes on only onto surfaces whose BSDF is
+    /// all delta from vertices whose BSDF is not (a step between two such vertices is a light
+    /// subpath's connection).
     #[inline]
-    fn bounce(&self, path: &mut NlosPath, rng: &mut Sampler, out: &mut impl FnMut(Splat)) -> bool {
+    pub(super) fn bounce<const DELTA_PREFIX: bool>(
+        &self,
+        path: &mut NlosPath,
+        rng: &mut Sampler,
+        out: &mut impl FnMut(Splat),
+    ) -> bool {
         let st = self.settings;
         let (pixel, depth) = (path.pixel, path.depth);
         let first;
         let v = match (depth, self.camera) {
+            _ if DELTA_PREFIX => path.at.as_ref(),
             (0, None) => self.scan.scan_vertices[pixel].as_ref(),
             (0, Some(camera)) => {
                 first = self.camera_vertex(camera, pixel, rng);
@@ -888,7 +918,7 @@ impl NlosTracer<'_> {
         // BSDF rather than towards hidden geometry (which would miss that component).
         let (all_delta, some_delta) = self.delta[v.it.shape as usize];
         // ---- Emitter sampling
-        if self.connects(depth, all_delta) {
+        if self.connects(depth, all_delta) && !(DELTA_PREFIX && depth == 0) {
             self.emitter_sampling(pixel, v, depth == 1 && self.camera.is_none(), out);
         }
         if self.ends_after_connecting(depth) {
@@ -923,14 +953,21 @@ impl NlosTracer<'_> {
         let from_scan_point = depth == 0 && self.camera.is_none();
         let step = match (hidden, st.hgrs) {
             (Some(hg), Some(h)) => hgrs::sample(h, rng, |rng| {
-                self.hidden_candidate(hg, &v.it, v.wi, from_scan_point, rng)
+                let y = hg.sample(self.scene, rng);
+                self.hidden_candidate(hg, y, &v.it, v.wi, from_scan_point)
             }),
             // Beyond the first vertex (on the relay wall, whence the hidden scene is far and
             // small) the mixture with BSDF sampling, unless the technique roulette chose.
             (Some(hg), None) if depth > 0 && !st.hgs_rroulette => {
-                self.mixture_step(hg, &v.it, v.wi, false, rng)
+                self.mixture_step(hg, &v.it, v.wi, false, DELTA_PREFIX, rng)
             }
-            (Some(hg), None) => self.hidden_candidate(hg, &v.it, v.wi, from_scan_point, rng),
+            (Some(hg), None) if DELTA_PREFIX => self
+                .delta_draw(rng)
+                .and_then(|y| self.hidden_candidate(hg, y, &v.it, v.wi, from_scan_point)),
+            (Some(hg), None) => {
+                let y = hg.sample(self.scene, rng);
+                self.hidden_candidate(hg, y, &v.it, v.wi, from_scan_point)
+            }
             (None, _) => {
                 let cone = if depth == 0 {
                     self.scan

@@ -21,12 +21,12 @@
 //! applied to the scan grid. docs/techniques.md states when it applies and what it gains.
 
 use super::clear_view::paths_end_on;
-use super::nlos::HiddenEdge;
+use super::nlos::{HiddenEdge, NlosPath};
 use super::{NlosTracer, Splat, Step, Vertex, hgrs, russian_roulette};
 use crate::bsdf::Bsdf;
 use crate::capture::Spot;
 use crate::geometry::Interaction;
-use crate::math::Spectrum;
+use crate::math::{COS_EPS, Spectrum};
 use crate::sampling::Sampler;
 use crate::scene::{AreaSampler, Scene, Setup};
 use crate::settings::CaptureType;
@@ -36,16 +36,20 @@ use std::sync::atomic::Ordering;
 /// Whether a render of `scene` shares light subpaths among scan points: `nlos_sample_reuse` is on,
 /// the capture uses laser sampling and hidden-geometry sampling at every vertex (no technique
 /// mixture, no depth limit on it; HGRS only for a single capture, whose first vertex's candidates
-/// are judged from its one spot), and no path goes on from a surface whose BSDF has a delta
-/// component: such a path is reached by BSDF sampling from the scan point's side, which a light
-/// subpath cannot mirror, so those surfaces must have no hidden geometry beyond the sides their
-/// BSDF leaves by (`clear_view::paths_end_on`: a flat plastic letter facing the relay wall, whose
-/// mirror reflection meets nothing hidden; not an extruded one, whose sides face one another).
+/// are judged from its one spot), and every surface whose BSDF has a delta component is one the
+/// render can carry ([`delta_surfaces`]). Hidden surfaces whose BSDF is all delta (glass, mirrors)
+/// are carried by light subpaths through them and by the pixels' delta prefixes; those take
+/// neither HGRS nor `filter_bounces`, and the hidden geometry must have some surface that is not
+/// all delta (else no path connects anything past its first vertex, and the per-point tracer ends
+/// each there at once).
 pub fn shares_samples(scene: &Scene) -> bool {
     let Setup::Nlos(n) = &scene.setup else {
         return false;
     };
     let s = &n.settings;
+    let (carried, some_delta, all_delta) = *scene.delta_surfaces
+        [s.hgs_includes_relay_wall as usize]
+        .get_or_init(|| delta_surfaces(scene));
     s.sample_reuse
         && (s.capture_type == CaptureType::Single || s.hgrs.is_none())
         && laser_points(scene, s) <= MAX_LINKED_SPOTS
@@ -53,22 +57,32 @@ pub fn shares_samples(scene: &Scene) -> bool {
         && s.hidden_geometry_sampling
         && !s.hgs_rroulette
         && s.hgs_max_depth.is_none()
-        && *scene.delta_paths_end[s.hgs_includes_relay_wall as usize]
-            .get_or_init(|| delta_paths_end(scene))
+        && carried
+        && (!some_delta || (s.hgrs.is_none() && s.filter_depth.is_none() && !all_delta))
 }
 
-/// Whether no path goes on from a surface whose BSDF has a delta component (true where none has).
-fn delta_paths_end(scene: &Scene) -> bool {
+/// For the hidden geometry of `scene`: whether every surface whose BSDF has a delta component can
+/// be carried by a shared render, whether some hidden surface's BSDF is all delta, and whether
+/// every one is. A hidden surface whose BSDF is all delta is carried (light subpaths go on from it
+/// by sampling its BSDF, and the paths whose vertex after the scan point lies there are each
+/// pixel's delta prefixes). Any other (a delta component beside a non-delta one, as in smooth
+/// plastic, or a delta off the hidden geometry) must end every path: such a path is reached by
+/// BSDF sampling from the scan point's side, which a light subpath cannot mirror, so those
+/// surfaces must have no hidden geometry beyond the sides their BSDF leaves by
+/// (`clear_view::paths_end_on`: a flat plastic letter facing the relay wall, whose mirror
+/// reflection meets nothing hidden; not an extruded one, whose sides face one another).
+fn delta_surfaces(scene: &Scene) -> (bool, bool, bool) {
     let bsdfs = scene.shape_bsdfs(true);
-    !bsdfs.iter().any(Bsdf::has_delta)
-        || scene.sampled_hidden_geometry().is_some_and(|hidden| {
-            paths_end_on(
-                scene,
-                hidden,
-                |k| bsdfs[k].has_delta(),
-                |k| bsdfs[k].scatters_behind(),
-            )
-        })
+    let Some(hidden) = scene.sampled_hidden_geometry() else {
+        return (!bsdfs.iter().any(Bsdf::has_delta), false, false);
+    };
+    let delta_hidden = |k: usize| hidden.covers(k as u32) && bsdfs[k].is_delta();
+    let blocked = |k: usize| bsdfs[k].has_delta() && !delta_hidden(k);
+    let carried = !(0..bsdfs.len()).any(blocked)
+        || paths_end_on(scene, hidden, blocked, |k| bsdfs[k].scatters_behind());
+    let mut covered = (0..bsdfs.len()).filter(|&k| hidden.covers(k as u32));
+    let some = covered.clone().any(delta_hidden);
+    (carried, some, some && covered.all(delta_hidden))
 }
 
 /// Most laser points an exhaustive capture links to each light subpath: a block of subpaths holds a
@@ -91,13 +105,17 @@ fn laser_points(scene: &Scene, s: &crate::settings::NlosSettings) -> usize {
 
 /// A vertex of a light subpath: the hidden point, the direction towards the previous vertex (the
 /// laser side; `None` for the first vertex of a subpath that no single spot lights), the throughput
-/// up to it without its own BSDF (a single capture's spot radiance included), and the optical path
-/// from it back to the laser (to the first vertex where no single spot lights it).
+/// up to it without its own BSDF (a single capture's spot radiance included; nor the cosine at it
+/// towards the laser side, which that BSDF's value holds), the optical path from it back to the
+/// laser (to the first vertex where no single spot lights it), how many hidden vertices the
+/// subpath has up to it, and whether it may face some scan point.
 struct LightVertex {
     it: Interaction,
     to_light: Option<Vec3A>,
     weight: Spectrum,
     opl: f64,
+    count: u32,
+    faces_scan: bool,
 }
 
 /// One light subpath: its vertices that connect to scan points (those whose path depth passes
@@ -130,12 +148,12 @@ struct SpotLink {
 
 /// Where the spot of a connection is: in the light vertex's weight (a single capture), linked to
 /// the subpath's first vertex by each of the (slot, link) pairs (an exhaustive capture), or by the
-/// confocal scan point's own link, whose shadow ray (the scan point's connection to the first
-/// vertex) the closure casts once, when first asked.
+/// confocal pixel's own link, whose shadow ray the closure casts once, when first asked; with
+/// whether the link's segment is the connection to the first vertex (the spot is the scan point).
 enum Spots<'a> {
     InWeight,
     Linked(&'a [(usize, SpotLink)]),
-    Confocal(SpotLink, &'a mut dyn FnMut() -> bool),
+    Confocal(SpotLink, &'a mut dyn FnMut() -> bool, bool),
 }
 
 impl NlosTracer<'_> {
@@ -163,7 +181,7 @@ impl NlosTracer<'_> {
                 return None;
             }
             let first = step(rng, &mut |rng| {
-                let (y, inv_density) = self.first_hidden_vertex(hg, rng);
+                let (y, inv_density) = self.first_hidden_vertex(hg, rng)?;
                 let u = spot.it.p - y.p;
                 let r2 = u.length_squared();
                 let r = r2.sqrt();
@@ -183,7 +201,7 @@ impl NlosTracer<'_> {
             let opl = first.dist as f64 + spot.last_leg;
             (first, Some(to_light), opl)
         } else {
-            let (y, inv_density) = self.first_hidden_vertex(hg, rng);
+            let (y, inv_density) = self.first_hidden_vertex(hg, rng)?;
             let first = Step {
                 next: y,
                 dist: 0.0,
@@ -202,21 +220,29 @@ impl NlosTracer<'_> {
             }),
         };
         // Russian roulette reads the throughput after the source, `beta` (without the first
-        // vertex's BSDF where that depends on the spot).
+        // vertex's BSDF where that depends on the spot). `eta`: the index of refraction where the
+        // subpath is.
         let (mut it, mut beta, mut to_light, mut opl) = (first.next, Spectrum::ONE, to_light, opl);
-        let mut count: u32 = 1;
+        let (mut count, mut eta): (u32, f32) = (1, 1.0);
         loop {
             // A path of `count` hidden vertices has depth count + 2 (the per-point tracer's
-            // emitter sampling at loop depth `count`).
+            // emitter sampling at loop depth `count`). Nothing connects to a surface whose BSDF is
+            // all delta; with delta prefixes in the render (`delta_hidden`), a vertex that faces
+            // no scan point is kept for theirs.
+            let all_delta = self.delta[it.shape as usize].0;
+            let faces_scan = self.may_face_scan_points(&it);
             if count.saturating_add(1) < st.max_depth
                 && st.keep(count + 2)
-                && self.may_face_scan_points(&it)
+                && !all_delta
+                && (faces_scan || self.delta_hidden.is_some())
             {
                 path.vertices.push(LightVertex {
                     it,
                     to_light,
                     weight: beta * source,
                     opl,
+                    count,
+                    faces_scan,
                 });
             }
             // ---- The next hidden vertex, on the scan point's side of this one.
@@ -230,10 +256,12 @@ impl NlosTracer<'_> {
                 break;
             }
             let next = match to_light {
+                // On glass or a mirror, its BSDF's draw.
+                Some(to_light) if all_delta => self.delta_light_step(hg, &it, to_light, rng),
                 // Lit from a known side: the mixture with BSDF sampling (the per-point tracer's
                 // step beyond its first vertex, from the light's end).
                 Some(to_light) if st.hgrs.is_none() => {
-                    self.mixture_step(hg, &it, to_light, true, rng)
+                    self.mixture_step(hg, &it, to_light, true, false, rng)
                 }
                 _ => step(rng, &mut |rng| {
                     let x = hg.sample(self.scene, rng);
@@ -265,19 +293,52 @@ impl NlosTracer<'_> {
                 free.out = Some(-back);
             }
             to_light = Some(back);
-            (it, opl, count) = (next.next, opl + next.dist as f64, count + 1);
+            // Light is slower by η inside a refracting medium.
+            eta *= next.eta;
+            (it, opl, count) = (next.next, opl + (next.dist * eta) as f64, count + 1);
         }
         Some(path)
     }
 
     /// A subpath's first hidden vertex and its inverse area density: from the visibility guide
-    /// if there is one, else uniform (density 1/A).
+    /// if there is one, else uniform (density 1/A). `None` on a surface whose BSDF is all delta,
+    /// which no spot lights (the per-point tracer connects nothing there).
     #[inline]
-    fn first_hidden_vertex(&self, hg: &AreaSampler, rng: &mut Sampler) -> (Interaction, f32) {
-        match &self.guide {
+    fn first_hidden_vertex(
+        &self,
+        hg: &AreaSampler,
+        rng: &mut Sampler,
+    ) -> Option<(Interaction, f32)> {
+        let (y, inv_density) = match &self.guide {
             Some(guide) => guide.sample(hg, self.scene, rng),
             None => (hg.sample(self.scene, rng), hg.total_area()),
+        };
+        (!self.delta[y.shape as usize].0).then_some((y, inv_density))
+    }
+
+    /// A light subpath's step from `it`, a vertex on a surface whose BSDF is all delta lit from
+    /// `to_light`: its BSDF's draw, kept on the hidden geometry `hg`. Light subpaths carry
+    /// importance, whose refraction lacks radiance's (η_t/η_i)⁻² (the adjoint BSDF, Veach 1997
+    /// §5.2): the draw's weight times η². A subpath's weight leaves out the cosine at its newest
+    /// vertex towards the light (that vertex's BSDF value holds it): the one at `it` is put in
+    /// and the one at the next vertex taken out.
+    fn delta_light_step(
+        &self,
+        hg: &AreaSampler,
+        it: &Interaction,
+        to_light: Vec3A,
+        rng: &mut Sampler,
+    ) -> Option<Step> {
+        let step = self.bsdf_step(it, to_light, rng, None, Some(hg))?;
+        let cos_next = step.next.ns.dot(it.p - step.next.p).abs() / step.dist;
+        if !(cos_next > COS_EPS) {
+            return None;
         }
+        let cos_here = it.ns.dot(to_light).abs();
+        Some(Step {
+            weight: step.weight * (step.eta * step.eta * cos_here / cos_next),
+            ..step
+        })
     }
 
     /// An exhaustive capture's laser grid: every spot's link to the subpath's first vertex,
@@ -431,26 +492,84 @@ impl NlosTracer<'_> {
     }
 
     /// The contributions of one light sample to `pixel` through its first vertex `x`: the
-    /// connection of every vertex of `light`.
+    /// connection of every vertex of `light`, and the sample's delta prefix
+    /// ([`Self::delta_prefix`], drawn from the pixel's stream `rng`) where the render has one.
     pub(super) fn connect_light(
         &self,
         pixel: usize,
         x: &Vertex,
         light: Option<&LightPath>,
+        rng: &mut Sampler,
+        out: &mut impl FnMut(Splat),
+    ) {
+        let light = light.filter(|l| !l.vertices.is_empty());
+        if let Some(light) = light {
+            self.connect_path(pixel, x, 0, light, out);
+        }
+        if self.delta_hidden.is_some() {
+            self.delta_prefix(pixel, x, light, rng, out);
+        }
+    }
+
+    /// The paths of `pixel` whose vertex after its first, `x`, lies on a surface whose BSDF is all
+    /// delta (glass, a mirror), which no connection can end at. They are traced from `x` as the
+    /// per-point tracer traces them (`NlosTracer::bounce`: hidden-geometry sampling's first draw,
+    /// kept only on such a surface, then its BSDF's draws), connecting each later vertex y whose
+    /// BSDF is not all delta to the laser spots and to every vertex of `light`, and going on from y
+    /// only onto such a surface again. Each path is made once: it is a connection of the light
+    /// subpath at its first edge between two vertices whose BSDFs are not all delta, x's own for a
+    /// path whose second vertex is not on glass, a prefix's otherwise, and where it has none, a
+    /// prefix's connection to the spots (the partition of bidirectional path tracing's
+    /// strategies, Veach 1997 §10.2, here one per path).
+    fn delta_prefix(
+        &self,
+        pixel: usize,
+        x: &Vertex,
+        light: Option<&LightPath>,
+        rng: &mut Sampler,
+        out: &mut impl FnMut(Splat),
+    ) {
+        let mut path = NlosPath {
+            pixel,
+            at: Some(*x),
+            depth: 0,
+        };
+        while self.bounce::<true>(&mut path, rng, out) {
+            if let (Some(y), Some(light)) = (&path.at, light)
+                && !self.delta[y.it.shape as usize].0
+            {
+                self.connect_path(pixel, y, path.depth, light, out);
+            }
+        }
+    }
+
+    /// The connections of the path vertex `x` at loop depth `depth` (0: the pixel's first vertex)
+    /// to every vertex of the light subpath `light` within the depth limit.
+    fn connect_path(
+        &self,
+        pixel: usize,
+        x: &Vertex,
+        depth: u32,
+        light: &LightPath,
         out: &mut impl FnMut(Splat),
     ) {
         let st = self.settings;
-        let (Some(light), Some(hg)) = (light, self.hidden.as_ref()) else {
+        let Some(hg) = self.hidden.as_ref() else {
             return;
         };
-        if light.vertices.is_empty() {
-            return;
-        }
         let area = hg.total_area();
+        let from_scan = depth == 0;
+        let within = |v: &&LightVertex| {
+            if from_scan {
+                v.faces_scan
+            } else {
+                v.count.saturating_add(depth).saturating_add(1) < st.max_depth
+            }
+        };
         match (&light.spot_free, st.capture_type) {
             (None, _) => {
-                for v in &light.vertices {
-                    self.connect_scan_point(x, v, area, Spots::InWeight, out);
+                for v in light.vertices.iter().filter(within) {
+                    self.connect_vertex(x, from_scan, v, area, Spots::InWeight, out);
                 }
             }
             (Some(free), CaptureType::Confocal) => {
@@ -466,33 +585,41 @@ impl NlosTracer<'_> {
                 let mut seen = (!same).then_some(true);
                 let mut link_visible =
                     || *seen.get_or_insert_with(|| self.sees_scan_point(&x.it, &free.first));
-                for v in &light.vertices {
-                    let spots = Spots::Confocal(link, &mut link_visible);
-                    self.connect_scan_point(x, v, area, spots, out);
+                for v in light.vertices.iter().filter(within) {
+                    let spots = Spots::Confocal(link, &mut link_visible, same);
+                    self.connect_vertex(x, from_scan, v, area, spots, out);
                 }
             }
             (Some(free), _) => {
-                for v in &light.vertices {
-                    self.connect_scan_point(x, v, area, Spots::Linked(&free.links), out);
+                for v in light.vertices.iter().filter(within) {
+                    let spots = Spots::Linked(&free.links);
+                    self.connect_vertex(x, from_scan, v, area, spots, out);
                 }
             }
         }
     }
 
-    /// The contribution of the path scan point `x` → light subpath ending at `v`: the terms of a
-    /// hidden-geometry step from `x` to `v` (whose area density is already in `v.weight`), `v`'s
+    /// The contribution of the path through `x` (the scan point if `from_scan`, else a delta
+    /// prefix's vertex) → light subpath ending at `v`: the terms of a step from `x` to `v` (whose
+    /// area density is already in `v.weight`; from a scan point, a hidden-geometry step), `v`'s
     /// BSDF between `x` and the laser side, and the subpath's throughput; through each of `links`
     /// (slot, spot) for a subpath that no single spot lights.
     #[inline]
-    fn connect_scan_point(
+    fn connect_vertex(
         &self,
         x: &Vertex,
+        from_scan: bool,
         v: &LightVertex,
         area: f32,
         spots: Spots,
         out: &mut impl FnMut(Splat),
     ) {
-        let Some(e) = self.hidden_edge(&x.it, &v.it, area) else {
+        let edge = if from_scan {
+            self.hidden_edge(&x.it, &v.it, area)
+        } else {
+            self.facing_edge(&x.it, &v.it, area)
+        };
+        let Some(e) = edge else {
             return;
         };
         let Some(f_x) = self.bsdf(&x.it).eval(x.it.ns, x.wi, e.w) else {
@@ -506,13 +633,20 @@ impl NlosTracer<'_> {
             },
             None => None,
         };
+        let sees = || {
+            if from_scan {
+                self.sees_scan_point(&x.it, &v.it)
+            } else {
+                self.scene.visible_to(&x.it, &v.it)
+            }
+        };
         let head = x.beta * f_x * (e.cos_y / e.r2);
-        let opl = x.opl + e.r as f64 + v.opl;
+        let opl = x.opl + (e.r * x.eta) as f64 + v.opl;
         match spots {
             // A single capture: the spot is in v's weight.
             Spots::InWeight => {
                 if let Some(f_v) = f_v
-                    && self.sees_scan_point(&x.it, &v.it)
+                    && sees()
                 {
                     out(Splat {
                         slot: 0,
@@ -522,7 +656,7 @@ impl NlosTracer<'_> {
                 }
             }
             Spots::Linked(links) => {
-                if !self.sees_scan_point(&x.it, &v.it) {
+                if !sees() {
                     return;
                 }
                 for link in links {
@@ -535,13 +669,13 @@ impl NlosTracer<'_> {
                     }
                 }
             }
-            // Every test that casts no ray first; a first vertex's connection is the link's
-            // segment, so it casts none of its own.
-            Spots::Confocal(link, link_visible) => {
+            // Every test that casts no ray first; a first vertex's connection from the spot is
+            // the link's segment, so it casts none of its own.
+            Spots::Confocal(link, link_visible, on_link) => {
                 let Some(value) = linked_value(self.bsdf(&v.it), v, &e, head, f_v, &link) else {
                     return;
                 };
-                if !link_visible() || (f_v.is_some() && !self.sees_scan_point(&x.it, &v.it)) {
+                if !link_visible() || ((f_v.is_some() || !on_link) && !sees()) {
                     return;
                 }
                 out(Splat {

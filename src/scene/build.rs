@@ -550,7 +550,7 @@ impl Scene {
             meter,
             setup,
             hidden: Default::default(),
-            delta_paths_end: Default::default(),
+            delta_surfaces: Default::default(),
             prepared: Default::default(),
         })
     }

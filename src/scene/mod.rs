@@ -104,10 +104,11 @@ pub struct Scene {
     /// Area sampling over the hidden geometry without and with the relay wall, built on first
     /// use and kept for later renders ([`Scene::hidden_geometry`]).
     pub hidden: [std::sync::OnceLock<Option<std::sync::Arc<AreaSampler>>>; 2],
-    /// Per hidden geometry (without and with the relay wall), whether no path goes on from a
-    /// surface whose BSDF has a delta component: judged on first use by the sample-reuse rule
-    /// (up to 1,024 primitives against each other: 4.8 ms for 968 plastic triangles) and kept.
-    pub delta_paths_end: [std::sync::OnceLock<bool>; 2],
+    /// Per hidden geometry (without and with the relay wall), how a shared render meets the
+    /// surfaces whose BSDF has a delta component (whether it can carry them all, whether some
+    /// hidden one is all delta, whether every one is): judged on first use by the sample-reuse
+    /// rule (up to 1,024 primitives against each other: 4.8 ms for 968 plastic triangles) and kept.
+    pub delta_surfaces: [std::sync::OnceLock<(bool, bool, bool)>; 2],
     /// What a render prepares from the scene alone, kept for later renders: code that changes
     /// the scene in place empties it ([`Scene::focus_laser_at`]).
     pub prepared: Prepared,

@@ -6,6 +6,7 @@ bit-identical whatever the threads or the split into parts, and fall back where 
 
 import copy
 import os
+import tempfile
 
 import numpy as np
 import pytest
@@ -65,7 +66,46 @@ def plastic_sheet(**kw):
     return d
 
 
+def glass_cube(**kw):
+    """A glass cube between two diffuse panels that face the relay wall and each other, cutting
+    into the cube: light reaches the scan points through the glass (paths whose vertex after the
+    scan point is on the glass, traced from each pixel) and from one panel to the other through it
+    (light subpaths that refract), and some paths connect two points inside the glass."""
+    d = z(**kw)
+    d["z"] = {"type": "cube", "to_world": Transform4f().translate([0.0, 0.0, 1.0]).scale(0.2),
+              "bsdf": {"type": "dielectric"}}
+    for name, x, angle in (("left", -0.45, 135), ("right", 0.45, -135)):
+        d[name] = {"type": "rectangle", "to_world": Transform4f().translate([x, 0.0, 1.0]).rotate([0, 1, 0], angle).scale(0.35),
+                   "bsdf": {"type": "diffuse", "reflectance": 0.8}}
+    return d
+
+
+def panels_in_glass(**kw):
+    """The glass cube larger, with two two-sided diffuse panels inside it facing each other: paths
+    from a pixel refract into the glass and connect, inside it, to light subpaths that did."""
+    d = glass_cube(**kw)
+    d["z"]["to_world"] = Transform4f().translate([0.0, 0.0, 1.0]).scale(0.25)
+    for name, x in (("in_a", -0.12), ("in_b", 0.12)):
+        d[name] = {"type": "rectangle", "to_world": Transform4f().translate([x, 0.0, 1.0]).rotate([0, 1, 0], 90).scale(0.2),
+                   "bsdf": {"type": "twosided", "bsdf": {"type": "diffuse", "reflectance": 0.8}}}
+    return d
+
+
 SIMPLE = os.path.join(os.path.dirname(__file__), "..", "data", "mitransient", "transient-nlos", "nlos-z-simple.xml")
+ROOM = os.path.join(os.path.dirname(__file__), "..", "data", "mitransient", "transient-nlos", "nlos-z-room.xml")
+
+
+def room_in_glass(nlos_sample_reuse):
+    """mitransient's room (a camera, hidden-geometry sampling on) with its Z in smooth glass."""
+    text = open(ROOM).read()
+    z_mesh = '<string name="filename" value="meshes/hidden_geometry_Z.ply"/>'
+    start = text.index(z_mesh)
+    text = text[:start] + z_mesh + '<bsdf type="dielectric"/>' + text[text.index("</shape>", start):]
+    text = text.replace('value="meshes/', f'value="{os.path.dirname(ROOM)}/meshes/')
+    path = os.path.join(tempfile.mkdtemp(), "room_in_glass.xml")
+    with open(path, "w") as f:
+        f.write(text)
+    return nlos_rs.load_file(path).with_sample_reuse(nlos_sample_reuse)
 
 CASES = {
     "Z, unbounded depth": lambda **kw: z(spp=4096, **kw),
@@ -87,6 +127,14 @@ CASES = {
     "Z exhaustive 3x3, unbounded depth": lambda **kw: z(width=3, height=3, spp=4096, capture_type="exhaustive", **kw),
     "glossy wall and hidden Z, exhaustive 3x3": lambda **kw: glossy_wall(glossy_hidden_z(
         width=3, height=3, spp=2048, capture_type="exhaustive", **kw)),
+    # Glass among diffuse hidden surfaces: light subpaths refract through it, and the paths whose
+    # vertex after the scan point lies on it are traced from each pixel.
+    "glass cube between panels": lambda **kw: glass_cube(spp=4096, **kw),
+    "glass cube between panels, confocal": lambda **kw: glass_cube(spp=4096, capture_type="confocal", **kw),
+    "glass cube between panels, exhaustive 3x3": lambda **kw: glass_cube(width=3, height=3, spp=4096,
+                                                                          capture_type="exhaustive", **kw),
+    "mitransient nlos-z-room.xml, Z in glass (camera)": room_in_glass,
+    "panels inside glass, confocal": lambda **kw: panels_in_glass(spp=4096, capture_type="confocal", **kw),
     "plastic sheet before a diffuse one": lambda **kw: plastic_sheet(spp=4096, **kw),
     "plastic sheet before a diffuse one, confocal": lambda **kw: plastic_sheet(spp=4096, capture_type="confocal", **kw),
     # HGRS (resampled) on the light subpath: N candidates per vertex, paid once for all points.
@@ -108,11 +156,12 @@ def test_reuse_agrees_with_one_path_per_scan_point(case):
     variant = "rgb" if "rgb" in case else "mono"
     # The five-vertex signal of one path per scan point is heavy-tailed (most renders of a pixel
     # are zero): ten replicates' spread understates its variance, forty do not.
-    reps = 4 * REPS if "five-vertex" in case else REPS
+    # Paths that refract into glass and connect inside it are rare and heavy-tailed too: thirty.
+    reps = 4 * REPS if "five-vertex" in case else 3 * REPS if "inside glass" in case else REPS
     runs = {}
     for reuse, first_seed in ((False, 0), (True, 1000)):
         d = CASES[case](nlos_sample_reuse=reuse)
-        spp = 1024 if "camera" in case else None
+        spp = 256 if "room" in case else 1024 if "camera" in case else None
         runs[reuse] = np.array([nlos_rs.render(d, spp=spp, seed=first_seed + k, variant=variant, progress=False)[1].sum(-1)
                                 for k in range(reps)])
     assert runs[True].sum() > 0 and runs[True].shape == runs[False].shape
@@ -172,6 +221,9 @@ def test_reuse_is_on_by_default_and_off_where_it_does_not_apply():
                   (z(spp=256, nlos_hidden_geometry_sampling_do_rroulette=True), {}),
                   (z(spp=256), {"target_rel_error": 0.5})]:
         assert same(d, **kw), (d["integrator"], kw)
+    # Hidden glass among diffuse surfaces is shared; hidden geometry all in glass or mirrors connects
+    # nothing past the first vertex and is not.
+    assert not same(glass_cube(spp=64))
     mirror = z(spp=256)
     mirror["z"]["bsdf"] = {"type": "conductor"}
     assert same(mirror)
