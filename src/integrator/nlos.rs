@@ -717,14 +717,6 @@ impl<'a> NlosTracer<'a> {
         self.hidden_at(depth).filter(|_| !some_delta)
     }
 
-    /// A delta prefix's first hidden vertex: drawn as hidden-geometry sampling draws it (density
-    /// 1/A over all hidden surfaces), kept only where it lands on one whose BSDF is all delta.
-    #[inline]
-    fn delta_draw(&self, rng: &mut Sampler) -> Option<Interaction> {
-        let (dh, share) = self.delta_hidden.as_ref()?;
-        (rng.next_1d() < *share).then(|| dh.sample(self.scene, rng))
-    }
-
     /// [`Self::first_vertex`] with a camera (out of line: the scan points' case stays small
     /// where it is inlined).
     #[inline(never)]
@@ -961,9 +953,11 @@ impl NlosTracer<'_> {
             (Some(hg), None) if depth > 0 && !st.hgs_rroulette => {
                 self.mixture_step(hg, &v.it, v.wi, false, DELTA_PREFIX, rng)
             }
-            (Some(hg), None) if DELTA_PREFIX => self
-                .delta_draw(rng)
-                .and_then(|y| self.hidden_candidate(hg, y, &v.it, v.wi, from_scan_point)),
+            // (The prefix has chosen to draw on the all-delta surfaces.)
+            (Some(hg), None) if DELTA_PREFIX => self.delta_hidden.as_ref().and_then(|(dh, _)| {
+                let y = dh.sample(self.scene, rng);
+                self.hidden_candidate(hg, y, &v.it, v.wi, from_scan_point)
+            }),
             (Some(hg), None) => {
                 let y = hg.sample(self.scene, rng);
                 self.hidden_candidate(hg, y, &v.it, v.wi, from_scan_point)

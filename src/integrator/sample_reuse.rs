@@ -506,9 +506,7 @@ impl NlosTracer<'_> {
         if let Some(light) = light {
             self.connect_path(pixel, x, 0, light, out);
         }
-        if self.delta_hidden.is_some() {
-            self.delta_prefix(pixel, x, light, rng, out);
-        }
+        self.delta_prefix(pixel, x, light, rng, out);
     }
 
     /// The paths of `pixel` whose vertex after its first, `x`, lies on a surface whose BSDF is all
@@ -529,6 +527,15 @@ impl NlosTracer<'_> {
         rng: &mut Sampler,
         out: &mut impl FnMut(Splat),
     ) {
+        // The first hidden vertex is drawn as hidden-geometry sampling draws it (density 1/A
+        // over all hidden surfaces) and kept only on the all-delta ones: whether it lands there
+        // is chosen first (most draws do not), then the point on them (`bounce`).
+        let Some((_, share)) = &self.delta_hidden else {
+            return;
+        };
+        if rng.next_1d() >= *share {
+            return;
+        }
         let mut path = NlosPath {
             pixel,
             at: Some(*x),
