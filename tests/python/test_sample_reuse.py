@@ -174,12 +174,14 @@ def test_reuse_agrees_with_one_path_per_scan_point(case):
     assert res["agree"], res
 
 
-@pytest.mark.parametrize("capture", ["confocal", "exhaustive", "camera"])
+@pytest.mark.parametrize("capture", ["confocal", "exhaustive", "camera", "glass"])
 def test_many_spots_reuse_is_bit_identical_whatever_the_threads(capture):
     # A camera draws one jittered first vertex per pixel and tile of light samples (301 samples:
-    # a last tile of one).
+    # a last tile of one); hidden glass makes each pixel draw its delta prefixes from its stream.
     if capture == "camera":
         scene, spp = nlos_rs.load_file(SIMPLE), 301
+    elif capture == "glass":
+        scene, spp = nlos_rs.load_dict(glass_cube(width=5, height=3, spp=600)), None
     else:
         scene, spp = nlos_rs.load_dict(z(width=5, height=3, spp=600, capture_type=capture)), None
     ref = nlos_rs.render(scene, spp=spp, threads=1, progress=False, return_variance=True)
