@@ -16,6 +16,9 @@
 //!   ([`SpotLink`]): once per subpath for an exhaustive capture's laser grid (every scan point
 //!   shares the links, so a subpath serves every (scan point, laser point) pair), once per scan
 //!   point for a confocal one (its own spot).
+//! * Hidden glass and mirrors (BSDFs that are all delta) are carried: a light subpath goes on
+//!   through them by sampling their BSDF (adjoint weights), and each pixel traces the paths whose
+//!   vertex after its first lies on them, its delta prefixes (`NlosTracer::delta_prefix`).
 //!
 //! This is the connection idea of light tracing and bidirectional path tracing (Veach 1997, ch. 10)
 //! applied to the scan grid. docs/techniques.md states when it applies and what it gains.
