@@ -87,6 +87,16 @@ enum Geometry {
     Split(Arc<Split>),
 }
 
+impl Geometry {
+    /// The triangles tested against the eight rays at once (a split scene's smallest shapes).
+    fn packet(&self) -> &PacketScene {
+        match self {
+            Geometry::Packet(g) => g,
+            Geometry::Split(s) => &s.packet,
+        }
+    }
+}
+
 /// A scene of more triangles than the packet test takes, or with spheres and disks, in two parts:
 /// its smallest shapes of triangles, up to [`crate::geometry::ray_packet::MAX_TRIANGLES`] (a
 /// room's walls, a Cornell box's boxes), tested against the eight rays at once, and the rest
@@ -374,15 +384,13 @@ fn lane_surfaces(
         scene.prim_shape[i] == scene.prim_shape[j]
     }) {
         Some(g) => Geometry::Packet(g),
-        // (Kept with the scene: one for both variants.)
-        None if split => Geometry::Split(
-            scene
-                .prepared
-                .get_or_make(true, || {
-                    Split::new(scene).ok_or(NlosError::Scene("no split scene".into()))
-                })
-                .ok()?,
-        ),
+        // (Kept with the scene, made or not: one for both variants.)
+        None if split => {
+            let kept = (scene.prepared)
+                .get_or_make(true, || Ok(Split::new(scene).map(Arc::new)))
+                .ok()?;
+            Geometry::Split(Option::clone(&kept)?)
+        }
         None => return None,
     };
     let bsdfs = scene.shape_bsdfs(mono);
@@ -461,10 +469,7 @@ fn lane_surfaces(
             dielectric: eta.is_some(),
             eta: eta.unwrap_or(1.0),
             conductor,
-            plane: match &geometry {
-                Geometry::Packet(g) => g.plane(i as u32),
-                Geometry::Split(s) => s.packet.plane(i as u32),
-            },
+            plane: geometry.packet().plane(i as u32),
             emitter,
             curved,
         });
@@ -510,11 +515,7 @@ impl<'a> PathPacket<'a> {
         // share both normals (a light sample's cosines are taken with its part's).
         let mut corners = vec![None; scene.prims.len()];
         let mut second = vec![false; scene.prims.len()];
-        let parallelograms = match &geometry {
-            Geometry::Packet(g) => g.parallelograms(),
-            Geometry::Split(s) => s.packet.parallelograms(),
-        };
-        for &(i, j, c) in parallelograms {
+        for &(i, j, c) in geometry.packet().parallelograms() {
             let (a, b) = (&surfaces[i as usize], &surfaces[j as usize]);
             let same = |x: [f32; 3], y: [f32; 3]| (0..3).all(|k| (x[k] - y[k]).abs() <= 1e-6);
             if same(a.n, b.n) && same(a.ng, b.ng) {
