@@ -17,7 +17,7 @@ use glam::{Vec2, Vec3A};
 use nlos_rs::Scene;
 use nlos_rs::capture::Capture;
 use nlos_rs::geometry::Prim;
-use nlos_rs::geometry::ray_packet::{LANES, NO_PLANE, Packet, PacketScene};
+use nlos_rs::geometry::ray_packet::{Balls, LANES, MAX_BALLS, NO_PLANE, Packet, PacketScene};
 use nlos_rs::integrator::path_packet::PathPacket;
 use nlos_rs::render::{Monitor, RenderOptions, Rendered, render};
 use nlos_rs::sampling::{
@@ -514,6 +514,131 @@ fn packet_rays_meet_what_the_bvh_meets() {
     let met = inside + surface;
     assert!(escaped < met && other < met / 100 && corners + grazes < met / 1000);
     assert!(blocked > shadows / 20 && blocked < shadows);
+}
+
+/// Spheres tested eight rays at once (`Balls`, a split scene's) meet what the scalar sphere test
+/// (in double precision) meets, at the same distance to f32 rounding: eight spheres of radii from
+/// 1e-2 to 1e3 at coordinates up to 1e3, rays from anywhere and from their surfaces (offset off
+/// them as lockstep paths start, outwards or inwards), and shadow segments, tangents aside.
+#[test]
+fn balls_meet_what_the_sphere_test_meets() {
+    if !nlos_rs::simd::available() {
+        return;
+    }
+    let mut rng = Sampler::new(5, 0, 0);
+    let mut u3 = || Vec3A::new(rng.next_1d(), rng.next_1d(), rng.next_1d());
+    let spheres: Vec<(Vec3A, f32)> = (0..MAX_BALLS)
+        .map(|k| {
+            let scale = 10f32.powi(k as i32 % 6 - 2);
+            (
+                (u3() * 2.0 - 1.0) * 1e3f32.min(scale * 8.0),
+                scale * (0.5 + u3().x),
+            )
+        })
+        .collect();
+    let balls = Balls::new(
+        spheres
+            .iter()
+            .enumerate()
+            .map(|(i, &(c, r))| (c, r, i as u32)),
+    );
+    let prims: Vec<Prim> = spheres
+        .iter()
+        .map(|&(center, radius)| Prim::Sphere { center, radius })
+        .collect();
+    let scalar = |o: Vec3A, d: Vec3A, tmin: f32, tmax: f32| {
+        (prims.iter().enumerate())
+            .filter_map(|(i, p)| p.intersect(o, d, tmin, tmax).map(|(t, _)| (t, i as u32)))
+            .min_by(|a, b| a.0.total_cmp(&b.0))
+    };
+    let (mut hits, mut from_surface, mut tangents, mut shadows, mut blocked) = (0, 0, 0, 0, 0);
+    for round in 0..20_000 {
+        let mut p = Packet {
+            skip: [[NO_PLANE; LANES]; 2],
+            ..Packet::default()
+        };
+        for l in 0..LANES {
+            let k = (round * LANES + l) % MAX_BALLS;
+            let (c, r) = spheres[k];
+            let d = nlos_rs::sampling::square_to_uniform_sphere(Vec2::new(u3().x, u3().y));
+            let o = if l % 2 == 0 {
+                // Near sphere k, or off its surface.
+                c + (u3() * 2.0 - 1.0) * 3.0 * r
+            } else {
+                let n = nlos_rs::sampling::square_to_uniform_sphere(Vec2::new(u3().x, u3().y));
+                from_surface += 1;
+                nlos_rs::geometry::offset_origin(c + n * r, n, d)
+            };
+            for a in 0..3 {
+                (p.o[a][l], p.d[a][l]) = (o[a], d[a]);
+            }
+            p.tmax[l] = if round % 3 == 0 {
+                2.0 * r
+            } else {
+                f32::INFINITY
+            };
+        }
+        let (mut t, mut prim) = ([f32::INFINITY; LANES], [u32::MAX; LANES]);
+        balls.closest(&p, &mut t, &mut prim);
+        let open = balls.unoccluded(&p, 0xff);
+        for l in 0..LANES {
+            let o = Vec3A::new(p.o[0][l], p.o[1][l], p.o[2][l]);
+            let d = Vec3A::new(p.d[0][l], p.d[1][l], p.d[2][l]);
+            let want = scalar(o, d, 0.0, p.tmax[l]);
+            // A ray within f32 rounding of a tangent (or of its interval's end) may go either
+            // way.
+            let near_tangent = spheres.iter().any(|&(c, r)| {
+                let f = o - c;
+                let q = f - d * f.dot(d);
+                let end = f + d * p.tmax[l].min(1e30);
+                ((q.length() - r).abs() <= 1e-5 * (r + f.length()))
+                    || (p.tmax[l].is_finite()
+                        && (end.length() - r).abs() <= 1e-5 * (r + f.length()))
+            });
+            if near_tangent {
+                tangents += 1;
+                continue;
+            }
+            shadows += 1;
+            blocked += (open >> l & 1 == 0) as u32;
+            assert_eq!(
+                open >> l & 1 == 0,
+                want.is_some(),
+                "shadow ray from {o} along {d}"
+            );
+            match want {
+                None => assert_eq!(prim[l], u32::MAX, "ray from {o} along {d} met {}", prim[l]),
+                Some((tw, i)) => {
+                    hits += 1;
+                    assert_eq!(prim[l], i, "ray from {o} along {d}");
+                    // The point lies on the sphere to the rounding of o − c and of the roots'
+                    // arithmetic (a few ulps), and the distance to that divided by the cosine
+                    // with the surface (which the square root of the discriminant amplifies).
+                    let (c, r) = spheres[i as usize];
+                    let scale = o.abs().max_element() + c.abs().max_element() + r + tw;
+                    let off = ((o + d * t[l] - c).length() - r).abs();
+                    assert!(
+                        off <= 4e-6 * scale,
+                        "ray from {o} along {d}: {off} off the sphere"
+                    );
+                    let (f, d64) = ((o - c).as_dvec3(), d.as_dvec3());
+                    let q = f - d64 * f.dot(d64);
+                    let cos = ((r as f64).powi(2) - q.length_squared()).max(0.0).sqrt() / r as f64;
+                    let slack = 4e-6 * scale / cos.max(1e-3) as f32;
+                    assert!(
+                        (t[l] - tw).abs() <= slack,
+                        "ray from {o} along {d}: {} against {tw}",
+                        t[l]
+                    );
+                }
+            }
+        }
+    }
+    println!(
+        "{hits} hits of {shadows} rays ({from_surface} from surfaces, {blocked} blocked), {tangents} near a tangent"
+    );
+    assert!(hits > shadows / 4 && hits < shadows && tangents < shadows / 1000);
+    assert_eq!(blocked, hits);
 }
 
 /// The octahedron's shape, added to the Cornell box's XML.

@@ -24,8 +24,9 @@
 //! - **Rays start on the surface** and skip the triangles of its plane, and a shadow ray those of
 //!   its light point's plane, instead of being offset off them ([`crate::geometry::ray_packet`]).
 //!   Scenes of more triangles than the packet test takes, or with spheres and disks (a mesh in a
-//!   Cornell box), trace those in a tree beside it, each lane's ray alone and offset off their
-//!   surfaces as the scalar tracer's rays are ([`Split`]); the rest of the bounce stays in lanes.
+//!   Cornell box), test a few spheres in lanes too and trace the rest in a tree beside it, each
+//!   lane's ray alone, rays offset off those surfaces as the scalar tracer's rays are
+//!   ([`Split`]); the rest of the bounce stays in lanes.
 //!
 //! Results are the same whatever the thread count: a pixel's samples are traced in one task, in
 //! the same lanes, in the same order. Renders that keep per-sample values (variance, adaptive
@@ -42,7 +43,9 @@ use crate::capture::Spot;
 use crate::emitter::{AngularFalloff, Light};
 use crate::error::{NlosError, Result};
 use crate::geometry::bvh::Accel;
-use crate::geometry::ray_packet::{LANES as L, NO_PLANE, Packet, PacketScene, barycentric_maps};
+use crate::geometry::ray_packet::{
+    Balls, LANES as L, MAX_BALLS, NO_PLANE, Packet, PacketScene, barycentric_maps,
+};
 use crate::geometry::{Prim, offset_origin, segment_from};
 use crate::math::{Spectrum, frame_axes};
 use crate::sampling::{
@@ -72,7 +75,7 @@ const ROULETTE: u32 = 7;
 type F = [f32; L];
 type U = [u32; L];
 
-/// Most primitives of a scene the lanes take in two parts ([`Geometry::Split`]): each has a
+/// Most primitives of a scene the lanes take in parts ([`Geometry::Split`]): each has a
 /// [`Surface`] and a [`Smooth`], and a primitive of the tree a copy and its own tree nodes (about
 /// 350 bytes in all: 90 MB at most); a bigger scene takes the scalar tracers.
 pub const MAX_SPLIT_PRIMITIVES: usize = 1 << 18;
@@ -83,7 +86,7 @@ enum Geometry {
     /// At most [`crate::geometry::ray_packet::MAX_TRIANGLES`] triangles, each tested against the
     /// eight rays at once; a ray skips the triangles of its origin's plane key.
     Packet(PacketScene),
-    /// More (a mesh in a Cornell box): the scene in two parts ([`Split`]).
+    /// More (a mesh in a Cornell box), or spheres and disks: the scene in parts ([`Split`]).
     Split(Arc<Split>),
 }
 
@@ -97,20 +100,23 @@ impl Geometry {
     }
 }
 
-/// A scene of more triangles than the packet test takes, or with spheres and disks, in two parts:
-/// its smallest shapes of triangles, up to [`crate::geometry::ray_packet::MAX_TRIANGLES`] (a
-/// room's walls, a Cornell box's boxes), tested against the eight rays at once, and the rest
-/// (meshes, spheres, disks) in a tree of their own, through which each lane's ray goes alone and
-/// no farther than its packet hit. A ray leaving a primitive of the tree starts off it, offset
-/// along its geometric normal as the scalar tracer's rays are, and such a primitive's plane key is
-/// its own index.
+/// A scene of more triangles than the packet test takes, or with spheres and disks, in three
+/// parts: its smallest shapes of triangles, up to [`crate::geometry::ray_packet::MAX_TRIANGLES`]
+/// (a room's walls, a Cornell box's boxes), tested against the eight rays at once; up to
+/// [`MAX_BALLS`] spheres, each also tested against the eight rays at once ([`Balls`]); and the
+/// rest (meshes, disks, more spheres) in a tree of their own, through which each lane's ray goes
+/// alone and no farther than its nearest hit so far. A ray leaving a primitive off the packet
+/// starts off it, offset along its geometric normal as the scalar tracer's rays are, and such a
+/// primitive's plane key is its own index.
 struct Split {
     packet: PacketScene,
-    tree: Accel,
+    balls: Balls,
+    /// The tree, if any primitive is left for it.
+    tree: Option<Accel>,
     /// The scene's index of each of the tree's primitives.
     tree_prims: Vec<u32>,
-    /// Per scene primitive, whether the tree holds it, and its shape.
-    in_tree: Vec<bool>,
+    /// Per scene primitive, whether it is off the packet (a ball or in the tree), and its shape.
+    off_packet: Vec<bool>,
     prim_shape: Vec<u32>,
     /// The tree's bounding box, padded (low and high corners): most rays of a room pass it by,
     /// and are answered without entering the tree.
@@ -128,7 +134,7 @@ impl Split {
         // The packet takes whole shapes, fewest triangles first, while they fit.
         let mut order: Vec<usize> = (0..scene.shapes.len()).collect();
         order.sort_by_key(|&k| (scene.shapes[k].prims.len(), k));
-        let mut in_tree = vec![true; n];
+        let mut off_packet = vec![true; n];
         let mut taken = 0;
         for k in order {
             let prims = scene.shapes[k].prims.clone();
@@ -142,14 +148,23 @@ impl Split {
                 continue;
             }
             taken += prims.len();
-            in_tree[prims].fill(false);
+            off_packet[prims].fill(false);
         }
         let packet = PacketScene::of(
             &scene.prims,
             |i, j| scene.prim_shape[i] == scene.prim_shape[j],
-            |i| !in_tree[i],
+            |i| !off_packet[i],
         )?;
-        let tree_prims: Vec<u32> = (0..n as u32).filter(|&i| in_tree[i as usize]).collect();
+        let spheres: Vec<_> = (0..n as u32)
+            .filter_map(|i| match scene.prims[i as usize] {
+                Prim::Sphere { center, radius } => Some((center, radius, i)),
+                _ => None,
+            })
+            .take(MAX_BALLS)
+            .collect();
+        let tree_prims: Vec<u32> = (0..n as u32)
+            .filter(|&i| off_packet[i as usize] && !spheres.iter().any(|b| b.2 == i))
+            .collect();
         let prims: Vec<Prim> = tree_prims
             .iter()
             .map(|&i| scene.prims[i as usize])
@@ -168,9 +183,10 @@ impl Split {
         Some(Self {
             bounds: [lo - pad, hi + pad],
             packet,
-            tree: Accel::build(&prims, &shapes, scene.shapes.len()),
+            tree: (!prims.is_empty()).then(|| Accel::build(&prims, &shapes, scene.shapes.len())),
+            balls: Balls::new(spheres),
             tree_prims,
-            in_tree,
+            off_packet,
             prim_shape: scene.prim_shape.clone(),
         })
     }
@@ -403,7 +419,7 @@ fn lane_surfaces(
         // A triangle's vertex normals that are all one (a flat face's, as a mesh file rounds
         // it) are the shading normal of its every point; others are interpolated at each hit
         // (`curved`), as a sphere's are found there. (Light parts are triangles; spheres and
-        // disks are in a split scene's tree.)
+        // disks are off a split scene's packet.)
         let (ng, ns, curved, normals) = match *prim {
             Prim::Triangle { v, n } => {
                 let (ns, curved) = match scene.prim_normals[i] {
@@ -1041,9 +1057,9 @@ impl PathPacket<'_> {
         };
         for l in 0..L {
             let from = ray.skip[0][l];
-            if from != NO_PLANE && split.in_tree[from as usize] {
-                let d = Vec3A::new(ray.d[0][l], ray.d[1][l], ray.d[2][l]);
-                let o = Vec3A::new(ray.o[0][l], ray.o[1][l], ray.o[2][l]);
+            if from != NO_PLANE && split.off_packet[from as usize] {
+                let d = lane(&ray.d, l);
+                let o = lane(&ray.o, l);
                 let o = offset_origin(o, self.geometric_normal(from as usize, o), d);
                 for a in 0..3 {
                     ray.o[a][l] = o[a];
@@ -1051,17 +1067,23 @@ impl PathPacket<'_> {
             }
         }
         let (mut t, mut prim) = split.packet.closest(ray);
+        if !split.balls.is_empty() {
+            split.balls.closest(ray, &mut t, &mut prim);
+        }
+        let Some(tree) = &split.tree else {
+            return (t, prim);
+        };
         for l in 0..L {
             let tmax = ray.tmax[l].min(t[l]);
             if !(tmax > ray.tmin[l]) {
                 continue;
             }
-            let o = Vec3A::new(ray.o[0][l], ray.o[1][l], ray.o[2][l]);
-            let d = Vec3A::new(ray.d[0][l], ray.d[1][l], ray.d[2][l]);
+            let o = lane(&ray.o, l);
+            let d = lane(&ray.d, l);
             if !split.may_meet_tree(o, d, ray.tmin[l], tmax) {
                 continue;
             }
-            if let Some(hit) = split.tree.intersect(o, d, ray.tmin[l], tmax) {
+            if let Some(hit) = tree.intersect(o, d, ray.tmin[l], tmax) {
                 (t[l], prim[l]) = (hit.t, split.tree_prims[hit.prim as usize]);
             }
         }
@@ -1079,23 +1101,42 @@ impl PathPacket<'_> {
             Geometry::Split(s) => s,
         };
         let mut open = split.packet.unoccluded(r, lanes);
+        // The segments of the lanes left open, off the first surface and short of the second, as
+        // [`Scene::visible_to`]'s.
+        let mut seg = Packet::default();
         let mut left = open;
         while left != 0 {
             let l = left.trailing_zeros() as usize;
             left &= left - 1;
-            let x = Vec3A::new(r.o[0][l], r.o[1][l], r.o[2][l]);
-            let d = Vec3A::new(r.d[0][l], r.d[1][l], r.d[2][l]);
-            // (A plane key is a triangle of that plane, or the tree's primitive itself.)
-            let (from, to) = (r.skip[0][l] as usize, r.skip[1][l] as usize);
+            let x = lane(&r.o, l);
+            let d = lane(&r.d, l);
+            let from = r.skip[0][l] as usize;
             let (o, w, tmax) = segment_from(x, self.geometric_normal(from, x), x + d * r.tmax[l]);
+            for a in 0..3 {
+                (seg.o[a][l], seg.d[a][l]) = (o[a], w[a]);
+            }
+            seg.tmax[l] = tmax;
+        }
+        if open != 0 && !split.balls.is_empty() {
+            open = split.balls.unoccluded(&seg, open);
+        }
+        let Some(tree) = &split.tree else {
+            return open;
+        };
+        let mut left = open;
+        while left != 0 {
+            let l = left.trailing_zeros() as usize;
+            left &= left - 1;
+            let o = lane(&seg.o, l);
+            let w = lane(&seg.d, l);
+            let tmax = seg.tmax[l];
             if !split.may_meet_tree(o, w, 0.0, tmax) {
                 continue;
             }
-            let plane = |prim: usize| split.tree.plane_of(split.prim_shape[prim]);
-            if !split
-                .tree
-                .unoccluded(o, w, 0.0, tmax, [plane(from), plane(to)])
-            {
+            // (A plane key is a triangle of that plane, or the tree's primitive itself.)
+            let (from, to) = (r.skip[0][l] as usize, r.skip[1][l] as usize);
+            let plane = |prim: usize| tree.plane_of(split.prim_shape[prim]);
+            if !tree.unoccluded(o, w, 0.0, tmax, [plane(from), plane(to)]) {
                 open &= !(1 << l);
             }
         }
@@ -1421,6 +1462,12 @@ fn interpolated_normals(smooth: &[Smooth], prim: &U, lanes: u32, x: &[F8; 3]) ->
         *c = *c / len;
     }
     n
+}
+
+/// Lane `l` of the vector `v` (by axis, then lane).
+#[inline(always)]
+fn lane(v: &[F; 3], l: usize) -> Vec3A {
+    Vec3A::new(v[0][l], v[1][l], v[2][l])
 }
 
 /// a·x + w lane by lane, for the map `m` = (a, w) given by lanes (its w as `w`).
