@@ -439,6 +439,33 @@ fn plane_keys(prims: &[Prim], take: impl Fn(usize) -> bool) -> Option<(Vec<u32>,
     Some((keys, extent))
 }
 
+/// The lanes `lanes` (bit per lane) whose rays within (tmin, `tmax`) may meet the box `bounds`
+/// (low and high corners), as bits: those of a nonempty interval that enter it (the slab test,
+/// eight rays at once), or whose direction lies too near an axis plane for the test to tell (a
+/// component below 1e-6).
+pub fn may_meet_box(r: &Packet, tmax: &[f32; LANES], bounds: &[Vec3A; 2], lanes: u32) -> u32 {
+    // SAFETY: packets are made where the CPU runs `F8`'s vectors.
+    unsafe { box_lanes(r, tmax, bounds) & lanes }
+}
+
+#[cfg_attr(target_arch = "x86_64", target_feature(enable = "avx2,fma"))]
+unsafe fn box_lanes(r: &Packet, tmax: &[f32; LANES], bounds: &[Vec3A; 2]) -> u32 {
+    let b = F8::splat;
+    let (mut near, mut far) = (F8::load(&r.tmin), F8::load(tmax));
+    let mut axis_near = b(f32::INFINITY);
+    let (lo, hi) = (bounds[0].to_array(), bounds[1].to_array());
+    for (a, (lo, hi)) in lo.into_iter().zip(hi).enumerate() {
+        let (o, d) = (F8::load(&r.o[a]), F8::load(&r.d[a]));
+        axis_near = axis_near.min(d.abs());
+        let inv = b(1.0) / d;
+        let (t0, t1) = ((b(lo) - o) * inv, (b(hi) - o) * inv);
+        near = near.max(t0.min(t1));
+        far = far.min(t0.max(t1));
+    }
+    let open = F8::load(tmax).gt(F8::load(&r.tmin));
+    ((near.le(far) | axis_near.lt(b(1e-6))) & open).bits()
+}
+
 /// Most spheres [`Balls`] takes: each ray tests every one.
 pub const MAX_BALLS: usize = 8;
 

@@ -44,10 +44,10 @@ use crate::emitter::{AngularFalloff, Light};
 use crate::error::{NlosError, Result};
 use crate::geometry::bvh::Accel;
 use crate::geometry::ray_packet::{
-    Balls, LANES as L, MAX_BALLS, NO_PLANE, Packet, PacketScene, barycentric_maps,
+    Balls, LANES as L, MAX_BALLS, NO_PLANE, Packet, PacketScene, barycentric_maps, may_meet_box,
 };
 use crate::geometry::{Prim, offset_origin, segment_from};
-use crate::math::{Spectrum, frame_axes};
+use crate::math::{RAY_EPS, Spectrum, frame_axes};
 use crate::sampling::{
     lane_key, lane_uniform, square_to_uniform_disk_concentric_lanes as square_to_disk,
     square_to_uniform_triangle_lanes as square_to_triangle,
@@ -121,6 +121,9 @@ struct Split {
     /// The tree's bounding box, padded (low and high corners): most rays of a room pass it by,
     /// and are answered without entering the tree.
     bounds: [Vec3A; 2],
+    /// That box padded by twice the most a shadow segment's ends move off the surfaces
+    /// ([`segment_from`]), for the segments before they are moved.
+    shadow_bounds: [Vec3A; 2],
 }
 
 impl Split {
@@ -180,8 +183,16 @@ impl Split {
                 (lo.min(a), hi.max(b))
             });
         let pad = Vec3A::splat(1e-4 * (1.0 + lo.abs().max(hi.abs()).max_element()));
+        // A segment's origin moves off its surface by at most `RAY_EPS` (1 + the largest
+        // coordinate of a scene point), its end not beyond the end given.
+        let extent = (scene.prims.iter()).fold(0.0f32, |e, p| {
+            let (a, b) = p.bounds();
+            e.max(a.abs().max(b.abs()).max_element())
+        });
+        let moved = pad + Vec3A::splat(2.0 * RAY_EPS * (1.0 + extent));
         Some(Self {
             bounds: [lo - pad, hi + pad],
+            shadow_bounds: [lo - moved, hi + moved],
             packet,
             tree: (!prims.is_empty()).then(|| Accel::build(&prims, &shapes, scene.shapes.len())),
             balls: Balls::new(spheres),
@@ -189,18 +200,6 @@ impl Split {
             off_packet,
             prim_shape: scene.prim_shape.clone(),
         })
-    }
-
-    /// Whether the ray `o + t d`, t in (tmin, tmax), may meet the tree: it enters its padded box,
-    /// or its direction lies too near an axis plane for the slab test to tell.
-    #[inline(always)]
-    fn may_meet_tree(&self, o: Vec3A, d: Vec3A, tmin: f32, tmax: f32) -> bool {
-        if d.abs().min_element() < 1e-6 {
-            return true;
-        }
-        let inv = d.recip();
-        let (t0, t1) = ((self.bounds[0] - o) * inv, (self.bounds[1] - o) * inv);
-        t0.min(t1).max_element().max(tmin) <= t0.max(t1).min_element().min(tmax)
     }
 }
 
@@ -1073,17 +1072,14 @@ impl PathPacket<'_> {
         let Some(tree) = &split.tree else {
             return (t, prim);
         };
-        for l in 0..L {
-            let tmax = ray.tmax[l].min(t[l]);
-            if !(tmax > ray.tmin[l]) {
-                continue;
-            }
-            let o = lane(&ray.o, l);
-            let d = lane(&ray.d, l);
-            if !split.may_meet_tree(o, d, ray.tmin[l], tmax) {
-                continue;
-            }
-            if let Some(hit) = tree.intersect(o, d, ray.tmin[l], tmax) {
+        // The lanes whose rays may meet the tree before their hit so far.
+        let tmax: F = std::array::from_fn(|l| ray.tmax[l].min(t[l]));
+        let mut left = may_meet_box(ray, &tmax, &split.bounds, u8::MAX as u32);
+        while left != 0 {
+            let l = left.trailing_zeros() as usize;
+            left &= left - 1;
+            let (o, d) = (lane(&ray.o, l), lane(&ray.d, l));
+            if let Some(hit) = tree.intersect(o, d, ray.tmin[l], tmax[l]) {
                 (t[l], prim[l]) = (hit.t, split.tree_prims[hit.prim as usize]);
             }
         }
@@ -1101,17 +1097,27 @@ impl PathPacket<'_> {
             Geometry::Split(s) => s,
         };
         let mut open = split.packet.unoccluded(r, lanes);
-        // The segments of the lanes left open, off the first surface and short of the second, as
-        // [`Scene::visible_to`]'s.
+        // The lanes whose segments may meet the tree (by the segments as given, in the box padded
+        // for their moved ends), and those that take the segments as moved ([`segment_from`],
+        // as [`Scene::visible_to`]'s: off the first surface, short of the second).
+        let near_tree = match split.tree {
+            Some(_) => may_meet_box(r, &r.tmax, &split.shadow_bounds, open),
+            None => 0,
+        };
+        let moved = if split.balls.is_empty() {
+            near_tree
+        } else {
+            open
+        };
         let mut seg = Packet::default();
-        let mut left = open;
+        let mut left = moved;
         while left != 0 {
             let l = left.trailing_zeros() as usize;
             left &= left - 1;
             let x = lane(&r.o, l);
-            let d = lane(&r.d, l);
             let from = r.skip[0][l] as usize;
-            let (o, w, tmax) = segment_from(x, self.geometric_normal(from, x), x + d * r.tmax[l]);
+            let y = x + lane(&r.d, l) * r.tmax[l];
+            let (o, w, tmax) = segment_from(x, self.geometric_normal(from, x), y);
             for a in 0..3 {
                 (seg.o[a][l], seg.d[a][l]) = (o[a], w[a]);
             }
@@ -1123,20 +1129,15 @@ impl PathPacket<'_> {
         let Some(tree) = &split.tree else {
             return open;
         };
-        let mut left = open;
+        let mut left = near_tree & open;
         while left != 0 {
             let l = left.trailing_zeros() as usize;
             left &= left - 1;
-            let o = lane(&seg.o, l);
-            let w = lane(&seg.d, l);
-            let tmax = seg.tmax[l];
-            if !split.may_meet_tree(o, w, 0.0, tmax) {
-                continue;
-            }
             // (A plane key is a triangle of that plane, or the tree's primitive itself.)
             let (from, to) = (r.skip[0][l] as usize, r.skip[1][l] as usize);
             let plane = |prim: usize| tree.plane_of(split.prim_shape[prim]);
-            if !tree.unoccluded(o, w, 0.0, tmax, [plane(from), plane(to)]) {
+            let (o, w) = (lane(&seg.o, l), lane(&seg.d, l));
+            if !tree.unoccluded(o, w, 0.0, seg.tmax[l], [plane(from), plane(to)]) {
                 open &= !(1 << l);
             }
         }
