@@ -220,8 +220,10 @@ struct Surface {
     /// Lambertian surface.
     dielectric: bool,
     eta: f32,
-    /// A smooth `conductor` (a mirror, one-sided) of complex index η + ik, as (η, k), instead.
-    conductor: Option<[[f32; 3]; 2]>,
+    /// A smooth `conductor` (a mirror, one-sided), instead: its shape, whose complex index
+    /// η + ik is [`PathPacket::conductors`]'; else `u32::MAX` (the index kept here, a surface,
+    /// which the lanes read at every hit, is 24 bytes smaller than with the index itself).
+    conductor: u32,
     /// Plane key ([`PacketScene::plane`]).
     plane: f32,
     /// Index in `emitters` of the area light the triangle belongs to, or `u32::MAX`.
@@ -373,13 +375,17 @@ pub struct PathPacket<'a> {
     /// Per triangle, its vertex normals as lanes interpolate them (read for [`Surface::curved`]
     /// triangles only).
     smooth: Vec<Smooth>,
+    /// Per shape, its complex index η + ik as (η, k) where it is a `conductor` (read for
+    /// [`Surface::conductor`]).
+    conductors: Vec<[[f32; 3]; 2]>,
     mono: bool,
     /// Some surface is glass or a mirror (a delta: what `GLASS` compiles in).
     glass: bool,
 }
 
-/// The primitives of a scene as lanes read them: the geometry, each one's surface and normals.
-type LaneSurfaces = (Geometry, Vec<Surface>, Vec<Smooth>);
+/// The primitives of a scene as lanes read them: the geometry, each one's surface and normals,
+/// and each shape's complex index where it is a `conductor`.
+type LaneSurfaces = (Geometry, Vec<Surface>, Vec<Smooth>, Vec<[[f32; 3]; 2]>);
 
 /// The lockstep form of `scene`'s primitives, if they are at most
 /// [`crate::geometry::ray_packet::MAX_TRIANGLES`] triangles or, with `split`, at most
@@ -411,6 +417,7 @@ fn lane_surfaces(
     let bsdfs = scene.shape_bsdfs(mono);
     let mut surfaces = Vec::with_capacity(scene.prims.len());
     let mut smooth = Vec::with_capacity(scene.prims.len());
+    let mut conductors = vec![[[0.0; 3]; 2]; scene.shapes.len()];
     for (i, prim) in scene.prims.iter().enumerate() {
         let shape = scene.prim_shape[i] as usize;
         let emitter = shape_emitter[shape];
@@ -451,27 +458,30 @@ fn lane_surfaces(
             }
         };
         let (albedo, two_sided, eta, conductor) = match &bsdfs[shape] {
-            Bsdf::Diffuse(d) => ([d.reflectance.to_array(); 2], false, None, None),
+            Bsdf::Diffuse(d) => ([d.reflectance.to_array(); 2], false, None, u32::MAX),
             Bsdf::TwoSided(t) => match (&*t.front, &*t.back) {
                 (Bsdf::Diffuse(f), Bsdf::Diffuse(b)) => (
                     [f.reflectance.to_array(), b.reflectance.to_array()],
                     true,
                     None,
-                    None,
+                    u32::MAX,
                 ),
                 _ => return None,
             },
             // (No light sample is taken on glass or a mirror, nor found on it.)
             Bsdf::Dielectric(g) if emitter == u32::MAX => {
                 let tints = [g.specular_reflectance, g.specular_transmittance];
-                (tints.map(|t| t.to_array()), false, Some(g.eta), None)
+                (tints.map(|t| t.to_array()), false, Some(g.eta), u32::MAX)
             }
-            Bsdf::Conductor(m) if emitter == u32::MAX => (
-                [m.specular_reflectance.to_array(); 2],
-                false,
-                None,
-                Some([m.eta.to_array(), m.k.to_array()]),
-            ),
+            Bsdf::Conductor(m) if emitter == u32::MAX => {
+                conductors[shape] = [m.eta.to_array(), m.k.to_array()];
+                (
+                    [m.specular_reflectance.to_array(); 2],
+                    false,
+                    None,
+                    shape as u32,
+                )
+            }
             _ => return None,
         };
         smooth.push(normals);
@@ -489,7 +499,7 @@ fn lane_surfaces(
             curved,
         });
     }
-    Some((geometry, surfaces, smooth))
+    Some((geometry, surfaces, smooth, conductors))
 }
 
 impl<'a> PathPacket<'a> {
@@ -525,7 +535,8 @@ impl<'a> PathPacket<'a> {
                 falloff,
             });
         }
-        let (geometry, surfaces, smooth) = lane_surfaces(scene, &shape_emitter, mono, true)?;
+        let (geometry, surfaces, smooth, conductors) =
+            lane_surfaces(scene, &shape_emitter, mono, true)?;
         // The light parts: each light triangle, but the two of a parallelogram as one where they
         // share both normals (a light sample's cosines are taken with its part's).
         let mut corners = vec![None; scene.prims.len()];
@@ -573,7 +584,7 @@ impl<'a> PathPacket<'a> {
         let st = &los.settings;
         let glass = surfaces
             .iter()
-            .any(|s| s.dielectric || s.conductor.is_some());
+            .any(|s| s.dielectric || s.conductor != u32::MAX);
         Some(Self {
             camera: &los.camera,
             rules: Rules {
@@ -598,6 +609,7 @@ impl<'a> PathPacket<'a> {
             falloff: emitters.iter().any(|e| e.falloff.is_some()),
             emitters,
             smooth,
+            conductors,
             mono,
             glass,
         })
@@ -628,7 +640,7 @@ impl<'a> PathPacket<'a> {
         {
             return None;
         }
-        let (geometry, surfaces, smooth) =
+        let (geometry, surfaces, smooth, conductors) =
             lane_surfaces(scene, &vec![u32::MAX; scene.shapes.len()], mono, true)?;
         let radiance = spot.radiance?;
         let ns = spot.it.ns.to_array();
@@ -654,7 +666,7 @@ impl<'a> PathPacket<'a> {
         };
         let glass = surfaces
             .iter()
-            .any(|s| s.dielectric || s.conductor.is_some());
+            .any(|s| s.dielectric || s.conductor != u32::MAX);
         Some(Self {
             camera,
             rules: Rules {
@@ -677,6 +689,7 @@ impl<'a> PathPacket<'a> {
             emitters: Vec::new(),
             falloff: false,
             smooth,
+            conductors,
             mono,
             glass,
         })
@@ -803,7 +816,7 @@ impl<'a> PathPacket<'a> {
                 curved |= (s.curved as u32) << l;
                 two_sided |= (s.two_sided as u32) << l;
                 glass |= ((GLASS && s.dielectric) as u32) << l;
-                mirror |= ((GLASS && s.conductor.is_some()) as u32) << l;
+                mirror |= ((GLASS && s.conductor != u32::MAX) as u32) << l;
             }
             let tv = F8::load(&t);
             let o = p.ray.o.each_ref().map(F8::load);
@@ -1210,10 +1223,10 @@ impl PathPacket<'_> {
             let l = left.trailing_zeros() as usize;
             left &= left - 1;
             let s = &self.surfaces[prim[l] as usize];
-            let Some([eta, k]) = s.conductor else {
+            let Some([eta, k]) = self.conductors.get(s.conductor as usize) else {
                 continue;
             };
-            let f = crate::bsdf::fresnel::conductor(cos_i[l], eta.into(), k.into());
+            let f = crate::bsdf::fresnel::conductor(cos_i[l], (*eta).into(), (*k).into());
             for c in 0..C {
                 w[c][l] = f[c] * s.albedo[0][c];
             }
