@@ -152,7 +152,8 @@ fn sphere_obj(tag: &str, rings: usize, segments: usize, c: [f64; 3], r: f64) -> 
 /// the lanes with their meshes and curved primitives in a tree: lockstep renders agree with the
 /// scalar tracer's and are bit-identical at 1, 2 and 3 threads, with a curved sphere of 100
 /// triangles on the Cornell box's small box (Lambertian and glass), an analytic sphere there
-/// (Lambertian, and glass with a disk facing the camera).
+/// (Lambertian, and glass with a disk facing the camera), and ten spheres (more than the lanes
+/// test at once: the rest go to the tree).
 #[test]
 fn lockstep_through_the_tree_agrees_with_the_scalar_tracer() {
     // On the Cornell box's small box.
@@ -175,6 +176,26 @@ fn lockstep_through_the_tree_agrees_with_the_scalar_tracer() {
     let disk = "<shape type=\"disk\"><transform name=\"to_world\"><scale value=\"80\"/>\
                 <translate x=\"400\" y=\"300\" z=\"450\"/></transform><ref id=\"gray\"/>\
                 <boolean name=\"flip_normals\" value=\"true\"/></shape>";
+    // Ten spheres about the box's middle, radii 25 to 70: more than the lanes test at once.
+    let balls: String = (0..10)
+        .map(|k| {
+            let (x, y, z) = (
+                100 + 40 * (k % 5),
+                120 + 60 * (k / 5) + 10 * (k % 3),
+                150 + 30 * k,
+            );
+            let bsdf = if k == 9 {
+                "<bsdf type=\"dielectric\"/>"
+            } else {
+                "<ref id=\"white\"/>"
+            };
+            format!(
+                "<shape type=\"sphere\"><point name=\"center\" x=\"{x}\" y=\"{y}\" z=\"{z}\"/>\
+                 <float name=\"radius\" value=\"{}\"/>{bsdf}</shape>",
+                25 + 5 * k
+            )
+        })
+        .collect();
     let cases = [
         (
             "a curved sphere of 100 triangles, rgb",
@@ -194,6 +215,11 @@ fn lockstep_through_the_tree_agrees_with_the_scalar_tracer() {
         (
             "an analytic sphere of glass and a disk facing the camera, mono",
             analytic(&(sphere("<bsdf type=\"dielectric\"/>") + disk)),
+            true,
+        ),
+        (
+            "ten analytic spheres (eight in lanes, two in the tree; one of glass), mono",
+            analytic(&balls),
             true,
         ),
     ];
