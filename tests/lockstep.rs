@@ -1004,6 +1004,17 @@ fn nlos_lockstep_agrees_with_the_scalar_tracer() {
             false,
         ),
         (
+            "nlos-z-room.xml with an analytic sphere beside the Z (in lanes), mono",
+            nlos_file("nlos-z-room.xml", |t| {
+                t.replace(
+                    "</scene>",
+                    "<shape type=\"sphere\"><point name=\"center\" x=\"0.5\" y=\"-0.5\" \
+                     z=\"2.4\"/><float name=\"radius\" value=\"0.3\"/></shape>\n</scene>",
+                )
+            }),
+            true,
+        ),
+        (
             "nlos-z-room.xml, one-sided, filter_bounces 3, mono",
             nlos_file("nlos-z-room.xml", |t| {
                 integrator("<integer name=\"filter_bounces\" value=\"3\"/>")(t).replace(
