@@ -158,9 +158,13 @@ impl Split {
             |i, j| scene.prim_shape[i] == scene.prim_shape[j],
             |i| !off_packet[i],
         )?;
+        // The lanes' f32 roots keep a sphere's hits to a few ulps of its centre's coordinates:
+        // a sphere smaller than a thousandth of them goes to the tree (its test is in f64).
         let spheres: Vec<_> = (0..n as u32)
             .filter_map(|i| match scene.prims[i as usize] {
-                Prim::Sphere { center, radius } => Some((center, radius, i)),
+                Prim::Sphere { center, radius } if radius >= 1e-3 * center.abs().max_element() => {
+                    Some((center, radius, i))
+                }
                 _ => None,
             })
             .take(MAX_BALLS)
