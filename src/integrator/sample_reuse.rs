@@ -523,7 +523,12 @@ impl NlosTracer<'_> {
         if let Some(light) = light {
             self.connect_path::<true>(pixel, x, 0, light, out);
         }
-        if self.delta_hidden.is_some() {
+        // The prefix's first hidden vertex is drawn as hidden-geometry sampling draws it
+        // (density 1/A over all hidden surfaces) and kept only on the all-delta ones: whether it
+        // lands there is chosen first (most draws do not), then the point on them (`bounce`).
+        if let Some((_, share)) = &self.delta_hidden
+            && rng.next_1d() < *share
+        {
             self.delta_prefix(pixel, x, light, rng, out);
         }
     }
@@ -537,7 +542,8 @@ impl NlosTracer<'_> {
     /// subpath at its first edge between two vertices whose BSDFs are not all delta, x's own for a
     /// path whose second vertex is not on glass, a prefix's otherwise, and where it has none, a
     /// prefix's connection to the spots (the partition of bidirectional path tracing's
-    /// strategies, Veach 1997 §10.2, here one per path).
+    /// strategies, Veach 1997 §10.2, here one per path). Called once the draw of its first hidden
+    /// vertex has chosen those surfaces ([`Self::connect_light`]).
     #[inline(never)]
     fn delta_prefix(
         &self,
@@ -547,15 +553,6 @@ impl NlosTracer<'_> {
         rng: &mut Sampler,
         out: &mut impl FnMut(Splat),
     ) {
-        // The first hidden vertex is drawn as hidden-geometry sampling draws it (density 1/A
-        // over all hidden surfaces) and kept only on the all-delta ones: whether it lands there
-        // is chosen first (most draws do not), then the point on them (`bounce`).
-        let Some((_, share)) = &self.delta_hidden else {
-            return;
-        };
-        if rng.next_1d() >= *share {
-            return;
-        }
         let mut path = NlosPath {
             pixel,
             at: Some(*x),
