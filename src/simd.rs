@@ -6,6 +6,8 @@
 //! [`F8::mul_add`]: `#[target_feature(enable = "avx2,fma")]`, after run-time detection:
 //! [`available`]); elsewhere it is an array, lane by lane. Either way every lane is rounded as the
 //! scalar operation would be (multiply-adds fused in both), so the two give the same bits.
+//! [`on_cpu!`] compiles such code a second time for AVX-512 (the same eight lanes, with mask
+//! registers), where the CPU has it.
 
 /// Lanes per value.
 pub const LANES: usize = 8;
@@ -22,6 +24,41 @@ pub fn available() -> bool {
         true
     }
 }
+
+/// Whether this CPU also runs AVX-512's foundation and its 256-bit forms (F and VL), for which
+/// [`on_cpu!`] compiles [`F8`]'s operations a second time: the lanes stay eight, but compares set
+/// mask registers (no blend of a vector mask) and 32 vector registers hold more of a loop.
+pub fn wide_available() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        available()
+            && std::arch::is_x86_feature_detected!("avx512f")
+            && std::arch::is_x86_feature_detected!("avx512vl")
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
+    }
+}
+
+/// `on_cpu!(wide, f(a: A, b: B) -> R)` calls `f(a, b)`, an `#[inline(always)]` function of
+/// [`F8`]'s operations, compiled for AVX-512 F and VL where `wide` (which only
+/// [`wide_available`] may set) and for AVX2 and FMA elsewhere: the same lanes, rounded alike, so
+/// both give the same bits. Unsafe: the CPU must run AVX2 and FMA ([`available`]).
+macro_rules! on_cpu {
+    ($wide:expr, $f:ident($($a:ident: $t:ty),*) -> $r:ty) => {{
+        #[cfg_attr(target_arch = "x86_64", target_feature(enable = "avx2,fma,avx512f,avx512vl"))]
+        unsafe fn wide($($a: $t),*) -> $r {
+            unsafe { $f($($a),*) }
+        }
+        #[cfg_attr(target_arch = "x86_64", target_feature(enable = "avx2,fma"))]
+        unsafe fn narrow($($a: $t),*) -> $r {
+            unsafe { $f($($a),*) }
+        }
+        if $wide { wide($($a),*) } else { narrow($($a),*) }
+    }};
+}
+pub(crate) use on_cpu;
 
 #[cfg(target_arch = "x86_64")]
 mod imp {

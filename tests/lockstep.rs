@@ -376,6 +376,8 @@ fn packet_rays_meet_what_the_bvh_meets() {
         assert!(!nlos_rs::simd::available());
         return;
     };
+    let forms = packets.each_extension();
+    assert_eq!(forms.len(), 1 + nlos_rs::simd::wide_available() as usize);
     let tris: Vec<([Vec3A; 3], Vec3A)> = scene
         .prims
         .iter()
@@ -412,6 +414,12 @@ fn packet_rays_meet_what_the_bvh_meets() {
             (p.tmin[l], p.tmax[l], p.skip[0][l]) = (0.0, f32::INFINITY, skip);
         }
         let (t, prim) = packets.closest(&p);
+        // Every compiled form of the test (AVX-512's where the CPU has it, AVX2's) gives the
+        // same bits.
+        for form in &forms {
+            let (tf, pf) = form.closest(&p);
+            assert_eq!((tf.map(f32::to_bits), pf), (t.map(f32::to_bits), prim));
+        }
         let mut shadow = p;
         let mut lanes = 0;
         for l in 0..LANES {
@@ -495,6 +503,9 @@ fn packet_rays_meet_what_the_bvh_meets() {
             continue;
         }
         let open = packets.unoccluded(&shadow, lanes);
+        for form in &forms {
+            assert_eq!(form.unoccluded(&shadow, lanes), open);
+        }
         for l in 0..LANES {
             if lanes >> l & 1 == 0 {
                 continue;
@@ -568,6 +579,8 @@ fn balls_meet_what_the_sphere_test_meets() {
             .enumerate()
             .map(|(i, &(c, r))| (c, r, i as u32)),
     );
+    let forms = balls.each_extension();
+    assert_eq!(forms.len(), 1 + nlos_rs::simd::wide_available() as usize);
     let prims: Vec<Prim> = spheres
         .iter()
         .map(|&(center, radius)| Prim::Sphere { center, radius })
@@ -607,6 +620,13 @@ fn balls_meet_what_the_sphere_test_meets() {
         let (mut t, mut prim) = ([f32::INFINITY; LANES], [u32::MAX; LANES]);
         balls.closest(&p, &mut t, &mut prim);
         let open = balls.unoccluded(&p, 0xff);
+        // Every compiled form gives the same bits.
+        for form in &forms {
+            let (mut tf, mut pf) = ([f32::INFINITY; LANES], [u32::MAX; LANES]);
+            form.closest(&p, &mut tf, &mut pf);
+            assert_eq!((tf.map(f32::to_bits), pf), (t.map(f32::to_bits), prim));
+            assert_eq!(form.unoccluded(&p, 0xff), open);
+        }
         for l in 0..LANES {
             let o = Vec3A::new(p.o[0][l], p.o[1][l], p.o[2][l]);
             let d = Vec3A::new(p.d[0][l], p.d[1][l], p.d[2][l]);

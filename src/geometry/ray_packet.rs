@@ -17,7 +17,7 @@
 //! and a shadow ray's end's), which it could meet only at t = 0, instead of being offset off them.
 
 use super::Prim;
-use crate::simd::{F8, M8};
+use crate::simd::{F8, M8, on_cpu};
 use glam::Vec3A;
 
 /// Rays per packet.
@@ -126,9 +126,11 @@ pub struct PacketScene {
     /// room), which such a segment meets at most at an end.
     occluders: Tris,
     /// Each primitive's plane key.
-    planes: Vec<f32>,
+    planes: Box<[f32]>,
     /// The parallelograms tested as one: (first, second, corners).
-    parallelograms: Vec<(u32, u32, [Vec3A; 3])>,
+    parallelograms: Box<[(u32, u32, [Vec3A; 3])]>,
+    /// Tested by the AVX-512 form of the code ([`crate::simd::on_cpu`]).
+    wide: bool,
 }
 
 impl PacketScene {
@@ -200,8 +202,23 @@ impl PacketScene {
             tris: Tris::new(tris),
             occluders: Tris::new(occluders),
             planes,
-            parallelograms,
+            parallelograms: parallelograms.into_boxed_slice(),
+            wide: crate::simd::wide_available(),
         })
+    }
+
+    /// This scene once for each form of the tests this CPU runs, AVX-512's first where it has
+    /// it, then AVX2's (tests compare them).
+    pub fn each_extension(&self) -> Vec<Self> {
+        let form = |wide| Self {
+            wide,
+            ..self.clone()
+        };
+        let mut forms = vec![form(false)];
+        if self.wide {
+            forms.insert(0, form(true));
+        }
+        forms
     }
 
     /// The pairs of triangles tested as one parallelogram: (first, second, corners c), the
@@ -219,15 +236,19 @@ impl PacketScene {
     /// surface skips its own plane; `skip[1]` is for shadow rays), distance and triangle
     /// (`u32::MAX` for none).
     pub fn closest(&self, r: &Packet) -> ([f32; LANES], [u32; LANES]) {
+        let tris = &self.tris;
         // SAFETY: the scene was made where the CPU runs `F8`'s vectors.
-        unsafe { closest(&self.tris, r) }
+        unsafe {
+            on_cpu!(self.wide, closest(tris: &Tris, r: &Packet) -> ([f32; LANES], [u32; LANES]))
+        }
     }
 
     /// The rays of the lanes `lanes` (bit per lane) that meet no triangle they do not skip, as
     /// bits, for rays that join two points of the scene's surfaces (origin and `o + tmax d`).
     pub fn unoccluded(&self, r: &Packet, lanes: u32) -> u32 {
+        let tris = &self.occluders;
         // SAFETY: as in `closest`.
-        unsafe { unoccluded(&self.occluders, r, lanes) }
+        unsafe { on_cpu!(self.wide, unoccluded(tris: &Tris, r: &Packet, lanes: u32) -> u32) }
     }
 }
 
@@ -254,13 +275,17 @@ struct Rays {
 impl Rays {
     #[inline(always)]
     fn new(r: &Packet) -> Self {
-        let d = r.d.each_ref().map(F8::load);
+        // (Arrays built whole, not by `map`: a generic left out of line where two compiled
+        // forms call it runs its vector operations as calls, 4x slower.)
+        let load3 = |a: &[[f32; LANES]; 3]| [F8::load(&a[0]), F8::load(&a[1]), F8::load(&a[2])];
+        let d = load3(&r.d);
+        let zero = F8::splat(0.0);
         Self {
-            o: r.o.each_ref().map(F8::load),
+            o: load3(&r.o),
             d,
-            neg_d: d.map(|d| F8::splat(0.0) - d),
+            neg_d: [zero - d[0], zero - d[1], zero - d[2]],
             tmin: F8::load(&r.tmin),
-            skip: r.skip.each_ref().map(F8::load),
+            skip: [F8::load(&r.skip[0]), F8::load(&r.skip[1])],
         }
     }
 }
@@ -282,9 +307,8 @@ fn test<const QUAD: bool, const K: usize, const SKIPS: usize>(
     let den = b(p[3]).mul_add(r.d[i], b(p[4]).mul_add(r.d[j], r.neg_d[K]));
     let t = num / den;
     let (xi, xj) = (r.d[i].mul_add(t, r.o[i]), r.d[j].mul_add(t, r.o[j]));
-    let [u, v] = tri
-        .b
-        .map(|m| b(m[0]).mul_add(xi, b(m[1]).mul_add(xj, b(m[2]))));
+    let bary = |m: &[f32; 3]| b(m[0]).mul_add(xi, b(m[1]).mul_add(xj, b(m[2])));
+    let (u, v) = (bary(&tri.b[0]), bary(&tri.b[1]));
     let key = b(tri.key);
     let top = b(1.0 + EDGE_SLACK);
     let sum = u + v;
@@ -325,7 +349,7 @@ fn closest_in<const QUAD: bool, const K: usize>(
     }
 }
 
-#[cfg_attr(target_arch = "x86_64", target_feature(enable = "avx2,fma"))]
+#[inline(always)]
 unsafe fn closest(tris: &Tris, p: &Packet) -> ([f32; LANES], [u32; LANES]) {
     let r = Rays::new(p);
     let mut best = F8::load(&p.tmax);
@@ -359,7 +383,7 @@ fn open_past<const QUAD: bool, const K: usize>(
     true
 }
 
-#[cfg_attr(target_arch = "x86_64", target_feature(enable = "avx2,fma"))]
+#[inline(always)]
 unsafe fn unoccluded(tris: &Tris, p: &Packet, lanes: u32) -> u32 {
     let r = Rays::new(p);
     let tmax = F8::load(&p.tmax);
@@ -479,6 +503,8 @@ pub const MAX_BALLS: usize = 8;
 pub struct Balls {
     /// Centre, squared radius and primitive index of each.
     balls: Vec<([f32; 3], f32, u32)>,
+    /// Tested by the AVX-512 form of the code ([`crate::simd::on_cpu`]).
+    wide: bool,
 }
 
 impl Balls {
@@ -488,7 +514,24 @@ impl Balls {
             .map(|(c, r, prim)| (c.to_array(), r * r, prim))
             .collect();
         assert!(balls.len() <= MAX_BALLS, "at most {MAX_BALLS} balls");
-        Self { balls }
+        Self {
+            balls,
+            wide: crate::simd::wide_available(),
+        }
+    }
+
+    /// These spheres once for each form of the tests this CPU runs, as
+    /// [`PacketScene::each_extension`].
+    pub fn each_extension(&self) -> Vec<Self> {
+        let form = |wide| Self {
+            wide,
+            ..self.clone()
+        };
+        let mut forms = vec![form(false)];
+        if self.wide {
+            forms.insert(0, form(true));
+        }
+        forms
     }
 
     /// Whether there is none.
@@ -499,15 +542,22 @@ impl Balls {
     /// Lowers each ray's closest hit `t` (within its `tmin`, at most its `tmax`), primitive
     /// `prim`, to a sphere's it meets nearer.
     pub fn closest(&self, r: &Packet, t: &mut [f32; LANES], prim: &mut [u32; LANES]) {
+        let balls = &self.balls[..];
         // SAFETY: balls are made beside a packet scene, where the CPU runs `F8`'s vectors.
-        unsafe { balls_closest(&self.balls, r, t, prim) }
+        unsafe {
+            on_cpu!(self.wide, balls_closest(balls: &[([f32; 3], f32, u32)], r: &Packet,
+                t: &mut [f32; LANES], prim: &mut [u32; LANES]) -> ())
+        }
     }
 
     /// The rays of the lanes `lanes` (bit per lane) that meet no sphere within (tmin, tmax), as
     /// bits.
     pub fn unoccluded(&self, r: &Packet, lanes: u32) -> u32 {
+        let balls = &self.balls[..];
         // SAFETY: as in `closest`.
-        unsafe { balls_unoccluded(&self.balls, r, lanes) }
+        unsafe {
+            on_cpu!(self.wide, balls_unoccluded(balls: &[([f32; 3], f32, u32)], r: &Packet, lanes: u32) -> u32)
+        }
     }
 }
 
@@ -516,12 +566,16 @@ impl Balls {
 #[inline(always)]
 fn ball_roots(c: &[f32; 3], r2: f32, r: &Rays) -> (F8, F8, M8) {
     let b = F8::splat;
-    let f: [F8; 3] = std::array::from_fn(|a| r.o[a] - b(c[a]));
+    let f = [r.o[0] - b(c[0]), r.o[1] - b(c[1]), r.o[2] - b(c[2])];
     let dot = |x: &[F8; 3], y: &[F8; 3]| x[0].mul_add(y[0], x[1].mul_add(y[1], x[2] * y[2]));
     // |o + t d − c|² = r², d a unit vector: t² + 2 h t + (|f|² − r²) = 0 with h = f·d.
     let h = dot(&f, &r.d);
     // The discriminant r² − |f − h d|², from the closest approach (not h² − |f|² + r²).
-    let q: [F8; 3] = std::array::from_fn(|a| r.neg_d[a].mul_add(h, f[a]));
+    let q = [
+        r.neg_d[0].mul_add(h, f[0]),
+        r.neg_d[1].mul_add(h, f[1]),
+        r.neg_d[2].mul_add(h, f[2]),
+    ];
     let disc = b(r2) - dot(&q, &q);
     let s = disc.max(b(0.0)).sqrt();
     // The root farther from 0, −(h + sign(h) s), has no cancellation; the other is their
@@ -536,7 +590,7 @@ fn ball_roots(c: &[f32; 3], r2: f32, r: &Rays) -> (F8, F8, M8) {
     )
 }
 
-#[cfg_attr(target_arch = "x86_64", target_feature(enable = "avx2,fma"))]
+#[inline(always)]
 unsafe fn balls_closest(
     balls: &[([f32; 3], f32, u32)],
     p: &Packet,
@@ -559,7 +613,7 @@ unsafe fn balls_closest(
     *t = best.store();
 }
 
-#[cfg_attr(target_arch = "x86_64", target_feature(enable = "avx2,fma"))]
+#[inline(always)]
 unsafe fn balls_unoccluded(balls: &[([f32; 3], f32, u32)], p: &Packet, lanes: u32) -> u32 {
     let r = Rays::new(p);
     let tmax = F8::load(&p.tmax);
