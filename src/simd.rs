@@ -6,7 +6,7 @@
 //! [`F8::mul_add`]: `#[target_feature(enable = "avx2,fma")]`, after run-time detection:
 //! [`available`]); elsewhere it is an array, lane by lane. Either way every lane is rounded as the
 //! scalar operation would be (multiply-adds fused in both), so the two give the same bits.
-//! [`on_cpu!`] compiles such code a second time for AVX-512 (the same eight lanes, with mask
+//! `on_cpu!` compiles such code a second time for AVX-512 (the same eight lanes, with mask
 //! registers), where the CPU has it.
 
 /// Lanes per value.
@@ -26,7 +26,7 @@ pub fn available() -> bool {
 }
 
 /// Whether this CPU also runs AVX-512's foundation and its 256-bit forms (F and VL), for which
-/// [`on_cpu!`] compiles [`F8`]'s operations a second time: the lanes stay eight, but compares set
+/// `on_cpu!` compiles [`F8`]'s operations a second time: the lanes stay eight, but compares set
 /// mask registers (no blend of a vector mask) and 32 vector registers hold more of a loop.
 pub fn wide_available() -> bool {
     #[cfg(target_arch = "x86_64")]
