@@ -60,6 +60,16 @@ macro_rules! on_cpu {
 }
 pub(crate) use on_cpu;
 
+/// `make(wide)` for each form of [`F8`]'s code that `on_cpu!` picks from and this CPU runs:
+/// AVX-512's first where `wide`, then AVX2's (for tests that compare them).
+pub fn each_form<T>(wide: bool, make: impl Fn(bool) -> T) -> Vec<T> {
+    [true, false]
+        .into_iter()
+        .filter(|&w| wide || !w)
+        .map(make)
+        .collect()
+}
+
 #[cfg(target_arch = "x86_64")]
 mod imp {
     use super::LANES;

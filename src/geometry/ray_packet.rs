@@ -275,15 +275,10 @@ impl PacketScene {
     /// This scene once for each form of the tests this CPU runs, AVX-512's first where it has
     /// it, then AVX2's (tests compare them).
     pub fn each_extension(&self) -> Vec<Self> {
-        let form = |wide| Self {
+        crate::simd::each_form(self.wide, |wide| Self {
             wide,
             ..self.clone()
-        };
-        let mut forms = vec![form(false)];
-        if self.wide {
-            forms.insert(0, form(true));
-        }
-        forms
+        })
     }
 
     /// The pairs of triangles tested as one parallelogram: (first, second, corners c), the
@@ -650,15 +645,10 @@ impl Balls {
     /// These spheres once for each form of the tests this CPU runs, as
     /// [`PacketScene::each_extension`].
     pub fn each_extension(&self) -> Vec<Self> {
-        let form = |wide| Self {
+        crate::simd::each_form(self.wide, |wide| Self {
             wide,
             ..self.clone()
-        };
-        let mut forms = vec![form(false)];
-        if self.wide {
-            forms.insert(0, form(true));
-        }
-        forms
+        })
     }
 
     /// Whether there is none.
