@@ -354,6 +354,19 @@ impl Bsdf<Spectrum> {
         }
     }
 
+    /// Whether it scatters nothing, whatever the directions: a `diffuse` of reflectance zero (the
+    /// black occluders of two-corner scenes), or `twosided` and `blendbsdf` made of such alone.
+    /// A path that reaches it ends there.
+    pub fn is_black(&self) -> bool {
+        match self {
+            Bsdf::Diffuse(d) => d.reflectance == Spectrum::ZERO,
+            Bsdf::TwoSided(t) => t.front.is_black() && t.back.is_black(),
+            // A mask's pass-through (no first component) lets light on.
+            Bsdf::Blend(b) => b.first.as_ref().is_some_and(|f| f.is_black()) && b.second.is_black(),
+            _ => false,
+        }
+    }
+
     /// Whether light arriving from behind the shading normal scatters on (`twosided` reflects it,
     /// glass transmits it): geometric tests outside the BSDF (hidden-geometry sampling) must then
     /// accept both sides of the surface. Every other BSDF is one-sided, as in Mitsuba.

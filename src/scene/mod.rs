@@ -169,13 +169,18 @@ impl Scene {
 
     /// Uniform area sampling over the hidden geometry of an NLOS scene: every shape but the relay
     /// wall (mitransient-model §3.1), or every shape `with_wall` (and with a camera, which has
-    /// no relay-wall shape). `None` if that has no area. Its tables take a pass over every
-    /// primitive, so they are built once per scene, not per render.
+    /// no relay-wall shape), less the shapes whose BSDF is black in mono and in rgb
+    /// ([`Bsdf::is_black`]; mitransient-model §5.10): a point drawn there would carry nothing.
+    /// `None` if that has no area. Its tables take a pass over every primitive, so they are built
+    /// once per scene, not per render.
     pub fn hidden_geometry(&self, with_wall: bool) -> Option<&AreaSampler> {
         self.hidden[with_wall as usize]
             .get_or_init(|| {
                 let wall = self.nlos().ok().and_then(|n| n.relay_wall);
-                AreaSampler::new(self, |s| with_wall || Some(s) != wall).map(std::sync::Arc::new)
+                let [mono, rgb] = [true, false].map(|m| self.shape_bsdfs(m));
+                let black = |s: usize| mono[s].is_black() && rgb[s].is_black();
+                AreaSampler::new(self, |s| (with_wall || Some(s) != wall) && !black(s))
+                    .map(std::sync::Arc::new)
             })
             .as_deref()
     }
