@@ -241,6 +241,12 @@ def workloads(quick: bool):
         "mesh_200k_confocal": (lambda: big(capture_type="confocal"), "mono"),
         "t_two_corners": (lambda: scenes.t_nlos_2corner("small", width=32, height=32, spp=max(1, 8192 // div),
                                                         filter_bounces=4), "mono"),
+        # The T at unbounded depth (no filter_bounces, as tal's generator writes it), confocal and
+        # exhaustive: light subpaths run on between the secondary wall and the T.
+        "t_two_corners_confocal": (lambda: scenes.t_nlos_2corner("small", width=32, height=32, spp=max(1, 8192 // div),
+                                                                 capture_type="confocal"), "mono"),
+        "t_two_corners_exhaustive": (lambda: scenes.t_nlos_2corner("small", width=8, height=8, spp=max(1, 8192 // div),
+                                                                   capture_type="exhaustive"), "mono"),
         "cornell_los": (cornell, "mono"),
         "one_pixel": (lambda: z(1 << 22, width=1, height=1), "mono"),
         "z_rgb": (lambda: z(4096, width=32, height=32), "rgb"),

@@ -1,9 +1,11 @@
 //! Shadow rays and traces a render can answer without tracing: the faces nothing stands in
 //! front of. A plane that has a set of points strictly on one side, and on that side no primitive
 //! a shadow ray tests, separates every segment from those points to the triangle in it from
-//! every such primitive: the segment stays strictly on that side, where nothing lies. So the
-//! connections of a capture's scan points and laser spots to that triangle are unoccluded, and
-//! need no shadow ray. Likewise a ray that leaves a triangle on a side of its plane where no
+//! every such primitive: the segment stays strictly on that side, where nothing lies. A primitive
+//! on that side but apart from the box around the points and the triangle, which holds every
+//! segment between them, is out of reach too (the secondary wall of a two-corner scene, whose
+//! occluder stands beside that box). So the connections of a capture's scan points and laser
+//! spots to that triangle are unoccluded, and need no shadow ray. Likewise a ray that leaves a triangle on a side of its plane where no
 //! hidden geometry lies meets none: the BSDF draw of the mixture at hidden vertices
 //! ([`super::hidden_mixture`]), which keeps only hidden geometry, ends there untraced, and a
 //! vertex whose every side its BSDF leaves by is such a side ends its path before any draw.
@@ -128,6 +130,12 @@ fn extent(prim: &Prim, n: DVec3, d: f64) -> (f64, f64) {
     }
 }
 
+/// A primitive's bounding box [low, high] (its extent along each axis).
+fn bounding_box(prim: &Prim) -> [DVec3; 2] {
+    let [x, y, z] = [DVec3::X, DVec3::Y, DVec3::Z].map(|a| extent(prim, a, 0.0));
+    [DVec3::new(x.0, y.0, z.0), DVec3::new(x.1, y.1, z.1)]
+}
+
 /// The rounding margin e of a scene whose largest coordinate, counting `reach` (the viewpoints'),
 /// is C; `None` for a scene of more than [`MAX_PRIMS`] primitives or beyond [`MAX_COORDINATE`].
 fn rounding_margin(scene: &Scene, reach: f64) -> Option<f64> {
@@ -233,12 +241,20 @@ impl ClearView {
         };
         let margin = 5.0 * e / SHADOW_EPS as f64;
         let prims = &scene.prims;
+        let boxes: Vec<[DVec3; 2]> = prims.iter().map(bounding_box).collect();
         // Each face on its own (spread over the render's threads): 14 ms for 968 triangles on one.
         let flags = map_indices(prims.len(), |i| {
             let Some((n, d)) = face_plane(scene, i) else {
                 return 0;
             };
             let sides = [&scan, &spots].map(|v| v.as_ref().and_then(|v| v.side(n, d, margin)));
+            // The box around each set of points and the triangle, widened by 5e: a primitive
+            // apart from it meets none of their segments.
+            let [lo, hi] = boxes[i];
+            let reach = [&scan, &spots].map(|v| {
+                v.as_ref()
+                    .map(|v| [v.low.min(lo) - 5.0 * e, v.high.max(hi) + 5.0 * e])
+            });
             // How far past the plane, on each side, the primitives each set's shadow rays test
             // reach; the scan stops once no flag can be set.
             let mut tested = [[0.0f64; 2]; 2];
@@ -254,9 +270,13 @@ impl ClearView {
                 }
                 let (lo, hi) = extent(p, n, d);
                 let key = scene.accel.plane_of(scene.prim_shape[j]);
+                let within = |r: &Option<[DVec3; 2]>| {
+                    r.is_some_and(|[l, h]| boxes[j][0].cmple(h).all() && boxes[j][1].cmpge(l).all())
+                };
                 for (k, v) in [&scan, &spots].into_iter().enumerate() {
                     if v.as_ref()
                         .is_some_and(|v| v.key == NO_PLANE || v.key != key)
+                        && within(&reach[k])
                     {
                         tested[k] = [tested[k][0].max(hi), tested[k][1].max(-lo)];
                     }
