@@ -734,6 +734,92 @@ fn visibility_guide_agrees_and_spends_less_on_unlit_geometry() {
     );
 }
 
+/// A face proved hidden from the scan points (or the laser spots) by a blocker
+/// (integrator/clear_view.rs) is: every shadow ray between a point of it and each of them, both
+/// ways round, meets something. Scenes: the base scene, an occluder (a rectangle 1.2 to 3 m wide
+/// at z = 1.5, tilted at random), a rectangle through it (across its plane), and rectangles and
+/// cubes behind it, in its shadow, partly out of it or beside it. Many points are flagged.
+#[test]
+fn faces_behind_a_blocker_are_hidden_as_the_rays_say() {
+    use nlos_rs::geometry::Interaction;
+    use nlos_rs::integrator::clear_view::ClearView;
+    let mut rng = Sampler::new(7, 0, 0);
+    let (mut flagged, mut checked) = (0u64, 0u64);
+    for case in 0..40 {
+        let mut p = scene_props(vec![], vec![]);
+        let mut r = |lo: f64, hi: f64| lo + (hi - lo) * rng.next_1d() as f64;
+        let occluder = DMat4::from_translation(DVec3::new(r(-0.3, 0.3), r(-0.3, 0.3), 1.5))
+            * DMat4::from_rotation_x(std::f64::consts::PI + r(-0.3, 0.3))
+            * DMat4::from_rotation_y(r(-0.3, 0.3))
+            * DMat4::from_scale(DVec3::splat(r(0.6, 1.5)));
+        p.insert(
+            "occluder",
+            obj("rectangle", vec![("to_world", Value::Matrix(occluder))]),
+        )
+        .unwrap();
+        // A rectangle through the occluder, across its plane, clear of the base rectangles'
+        // shadows: part of it is in plain view.
+        let through = DMat4::from_translation(DVec3::new(r(0.5, 0.7), r(-0.7, -0.5), 1.5))
+            * DMat4::from_rotation_y(std::f64::consts::FRAC_PI_2 + r(-0.3, 0.3))
+            * DMat4::from_scale(DVec3::splat(r(0.05, 0.12)));
+        p.insert(
+            "through",
+            obj("rectangle", vec![("to_world", Value::Matrix(through))]),
+        )
+        .unwrap();
+        for k in 0..4 {
+            let m = DMat4::from_translation(DVec3::new(r(-1.2, 1.2), r(-1.2, 1.2), r(1.8, 2.6)))
+                * DMat4::from_rotation_x(r(0.0, 6.3))
+                * DMat4::from_rotation_y(r(0.0, 6.3))
+                * DMat4::from_scale(DVec3::splat(r(0.05, 0.3)));
+            let plugin = ["rectangle", "cube"][(case + k) % 2];
+            p.insert(
+                format!("behind{k}"),
+                obj(plugin, vec![("to_world", Value::Matrix(m))]),
+            )
+            .unwrap();
+        }
+        let scene = load(&p);
+        let on_wall = |rng: &mut Sampler, half: f32| -> Interaction {
+            let (u, v) = (rng.next_1d() * 2.0 - 1.0, rng.next_1d() * 2.0 - 1.0);
+            let o = Vec3A::new(u * half, v * half, 0.1);
+            scene.intersect(o, -Vec3A::Z, 1.0).expect("the wall").1
+        };
+        let scan: Vec<Interaction> = (0..16).map(|_| on_wall(&mut rng, 0.9)).collect();
+        let spots: Vec<Interaction> = (0..3).map(|_| on_wall(&mut rng, 0.3)).collect();
+        let clear = ClearView::new(
+            &scene,
+            scan.iter(),
+            spots.iter(),
+            scene.hidden_geometry(false),
+        );
+        for i in 0..scene.prims.len() {
+            for _ in 0..50 {
+                let (y_p, ng, b) = scene.prims[i].sample_area(rng.next_2d());
+                let y = scene.surface_point(i, y_p, ng, b);
+                for (points, hidden) in [
+                    (&scan, clear.hidden_from_scan_points(&y)),
+                    (&spots, clear.hidden_from_spots(&y)),
+                ] {
+                    if hidden {
+                        flagged += 1;
+                        for w in points.iter() {
+                            assert!(
+                                !scene.visible_to(w, &y) && !scene.visible_to(&y, w),
+                                "case {case} prim {i}: seen from {:?}",
+                                w.p
+                            );
+                            checked += 1;
+                        }
+                    }
+                }
+            }
+        }
+    }
+    println!("{flagged} points hidden, {checked} shadow rays checked");
+    assert!(flagged > 10_000, "{flagged} points hidden");
+}
+
 /// A scan point's cone (integrator/scan_cone.rs) keeps every direction whose ray meets its
 /// sphere: scan points on the plane z = 0 and spheres placed at random (above, across and below
 /// that plane, near and far), cosine-weighted directions drawn as the diffuse BSDF draws them,

@@ -10,6 +10,18 @@
 //! ([`super::hidden_mixture`]), which keeps only hidden geometry, ends there untraced, and a
 //! vertex whose every side its BSDF leaves by is such a side ends its path before any draw.
 //!
+//! The other way round, a face can be proved hidden from every scan point (or laser spot): a
+//! planar shape whose triangles make one convex polygon (a rectangle: the occluder of a
+//! two-corner scene) blocks every segment between two convex sets that lie beyond its plane on
+//! either side when each segment's crossing of that plane falls inside the polygon. The
+//! crossings make a convex set, the plane's section of the hull of both sets, whose corners are
+//! the crossings of the segments between their corners; so it is enough that the 64 crossings
+//! between the corners of the points' box and of the face's box lie inside each outline edge.
+//! Where two of its triangles share an edge, a ray through that edge meets one of them
+//! (the watertight test); at the outline a margin keeps the rays' rounding inside. A vertex there
+//! then connects to no scan point (the T behind two corners: no shadow ray from the relay wall
+//! to it).
+//!
 //! The Z behind one corner is the case in point: its front faces look at the relay wall with
 //! nothing in between (the wall itself, on the scan points' plane, is skipped by their shadow rays),
 //! and a ray from a front face towards the wall meets no other part of the Z. A single scan point
@@ -43,6 +55,9 @@ const FROM_SCAN: u8 = 1;
 const FROM_SPOTS: u8 = 2;
 const OPEN_FRONT: u8 = 4;
 const OPEN_BACK: u8 = 8;
+// Every scan point's shadow ray to any point of it is blocked; every laser spot's is.
+const HIDDEN_FROM_SCAN: u8 = 16;
+const HIDDEN_FROM_SPOTS: u8 = 32;
 
 /// Which triangles the scan points and the laser spots see whole, and which sides of each
 /// triangle have no hidden geometry beyond them: flags per primitive (none for a scene too large
@@ -128,6 +143,119 @@ fn extent(prim: &Prim, n: DVec3, d: f64) -> (f64, f64) {
             (c - r, c + r)
         }
     }
+}
+
+/// A planar shape whose triangles make one convex polygon: its plane n·x = d (n unit) and its
+/// outline, each edge as a point on it and its unit normal in the plane, pointing inwards.
+struct Blocker {
+    shape: usize,
+    n: DVec3,
+    d: f64,
+    outline: Vec<(DVec3, DVec3)>,
+}
+
+impl Blocker {
+    /// Shape `shape` as a blocker: planar ([`Scene::is_planar`]; every vertex within `e` of the
+    /// plane of its first triangle), each edge shared by at most two triangles, which lie on
+    /// either side of it, and convex (every vertex within `e` inside every outline edge, so the
+    /// polygon is the intersection of their inner sides).
+    fn of(scene: &Scene, shape: usize, e: f64) -> Option<Self> {
+        if !scene.is_planar(shape) {
+            return None;
+        }
+        let tris: Vec<[Vec3A; 3]> = scene.prims[scene.shapes[shape].prims.clone()]
+            .iter()
+            .map(|p| match p {
+                Prim::Triangle { v, .. } => Some(*v),
+                _ => None,
+            })
+            .collect::<Option<_>>()?;
+        let [a, b, c] = tris.first()?.map(|v| v.as_dvec3());
+        let n = (b - a).cross(c - a).normalize_or_zero();
+        let d = n.dot(a);
+        let vertices = || tris.iter().flatten().map(|v| v.as_dvec3());
+        if n == DVec3::ZERO || vertices().any(|v| (n.dot(v) - d).abs() > e) {
+            return None;
+        }
+        // Each edge keyed by its ends' bits (shared edges have the same vertices, bit for bit),
+        // with its ends and the third vertex of its triangle.
+        let key = |v: Vec3A| v.to_array().map(f32::to_bits);
+        let mut edges: Vec<_> = tris
+            .iter()
+            .flat_map(|t| {
+                (0..3).map(move |k| {
+                    let (p, q, r) = (t[k], t[(k + 1) % 3], t[(k + 2) % 3]);
+                    let (p, q) = if key(p) <= key(q) { (p, q) } else { (q, p) };
+                    ((key(p), key(q)), [p, q, r].map(|v| v.as_dvec3()))
+                })
+            })
+            .collect();
+        edges.sort_by_key(|(k, _)| *k);
+        let mut outline = Vec::new();
+        for run in edges.chunk_by(|x, y| x.0 == y.0) {
+            let [p, q, r] = run[0].1;
+            let side = |r: DVec3| n.dot((q - p).cross(r - p));
+            match run {
+                [_] => {
+                    let m = n.cross(q - p).normalize_or_zero();
+                    outline.push((p, if m.dot(r - p) < 0.0 { -m } else { m }));
+                }
+                [_, other] if side(r) * side(other.1[2]) < 0.0 => {}
+                _ => return None,
+            }
+        }
+        let convex = outline
+            .iter()
+            .all(|&(p, m)| m != DVec3::ZERO && vertices().all(|v| m.dot(v - p) >= -e));
+        convex.then_some(Self {
+            shape,
+            n,
+            d,
+            outline,
+        })
+    }
+
+    /// Whether every shadow ray between a point of box `a` and a point of box `b` (either way
+    /// round; both boxes hold the rays' offset origins) meets the polygon: both boxes lie beyond
+    /// its plane on either side by more than the rays' shortening and the margin 5e, and the
+    /// crossings between their corners lie inside every outline edge by 20e, widened where the
+    /// segments run slanted to the plane (a direction's rounding moves a crossing farther).
+    fn blocks(&self, a: &[DVec3; 2], b: &[DVec3; 2], e: f64) -> bool {
+        let (ca, cb) = (corners(a), corners(b));
+        let reach = (a[1].max(b[1]) - a[0].min(b[0])).length();
+        let beyond = 2.0 * SHADOW_EPS as f64 * reach + 5.0 * e;
+        let (sa, sb) = (
+            ca.map(|c| self.n.dot(c) - self.d),
+            cb.map(|c| self.n.dot(c) - self.d),
+        );
+        let apart = |s: &[f64; 8], sign: f64| s.iter().all(|&v| v * sign > beyond);
+        let sign = if sa[0] > 0.0 { 1.0 } else { -1.0 };
+        if !(apart(&sa, sign) && apart(&sb, -sign)) {
+            return false;
+        }
+        let gap = sa
+            .iter()
+            .chain(&sb)
+            .map(|v| v.abs())
+            .fold(f64::INFINITY, f64::min);
+        let inside = 20.0 * e * (1.0 + reach / (2.0 * gap));
+        (0..64).all(|k| {
+            let (i, j) = (k / 8, k % 8);
+            let c = ca[i] + (cb[j] - ca[i]) * (sa[i] / (sa[i] - sb[j]));
+            self.outline.iter().all(|&(p, m)| m.dot(c - p) >= inside)
+        })
+    }
+}
+
+/// The eight corners of the box [low, high].
+fn corners([lo, hi]: &[DVec3; 2]) -> [DVec3; 8] {
+    std::array::from_fn(|i| {
+        DVec3::new(
+            if i & 1 != 0 { hi.x } else { lo.x },
+            if i & 2 != 0 { hi.y } else { lo.y },
+            if i & 4 != 0 { hi.z } else { lo.z },
+        )
+    })
 }
 
 /// A primitive's bounding box [low, high] (its extent along each axis).
@@ -242,6 +370,9 @@ impl ClearView {
         let margin = 5.0 * e / SHADOW_EPS as f64;
         let prims = &scene.prims;
         let boxes: Vec<[DVec3; 2]> = prims.iter().map(bounding_box).collect();
+        let blockers: Vec<Blocker> = (0..scene.shapes.len())
+            .filter_map(|s| Blocker::of(scene, s, e))
+            .collect();
         // Each face on its own (spread over the render's threads): 14 ms for 968 triangles on one.
         let flags = map_indices(prims.len(), |i| {
             let Some((n, d)) = face_plane(scene, i) else {
@@ -288,6 +419,27 @@ impl ClearView {
                     f |= bit;
                 }
             }
+            // Hidden behind a blocker: the face's box widened by its shadow rays' offset (they
+            // start off it towards a spot) and 5e (a point drawn on it may stray by rounding).
+            let pad = (1.0 + lo.abs().max(hi.abs()).max_element()) * RAY_EPS as f64 + 5.0 * e;
+            let face = [lo - pad, hi + pad];
+            let shape = scene.prim_shape[i] as usize;
+            for (k, bit) in [HIDDEN_FROM_SCAN, HIDDEN_FROM_SPOTS]
+                .into_iter()
+                .enumerate()
+            {
+                let Some(v) = [&scan, &spots][k] else {
+                    continue;
+                };
+                let points = [v.low, v.high];
+                if f & [FROM_SCAN, FROM_SPOTS][k] == 0
+                    && blockers.iter().any(|b| {
+                        b.shape != shape && b.shape as u32 != v.key && b.blocks(&points, &face, e)
+                    })
+                {
+                    f |= bit;
+                }
+            }
             if let Some(hidden) = hidden {
                 let past = hidden_reach(scene, hidden, i, (n, d), e);
                 if past[0] <= e {
@@ -312,6 +464,19 @@ impl ClearView {
     #[inline]
     pub fn seen_from_scan_points(&self, x: &Interaction) -> bool {
         self.has(x.prim, FROM_SCAN)
+    }
+
+    /// Whether no scan point sees any of the triangle `x` lies on (the shadow ray between them
+    /// would meet a blocker).
+    #[inline]
+    pub fn hidden_from_scan_points(&self, x: &Interaction) -> bool {
+        self.has(x.prim, HIDDEN_FROM_SCAN)
+    }
+
+    /// Whether no laser spot sees any of the triangle `x` lies on.
+    #[inline]
+    pub fn hidden_from_spots(&self, x: &Interaction) -> bool {
+        self.has(x.prim, HIDDEN_FROM_SPOTS)
     }
 
     /// Whether every laser spot sees all of the triangle `x` lies on.

@@ -474,17 +474,20 @@ impl<'a> NlosTracer<'a> {
     }
 
     /// Whether the point `y` and the laser spot `spot` see each other: no shadow ray where every
-    /// spot sees `y`'s triangle whole ([`ClearView`]).
+    /// spot sees `y`'s triangle whole, or none sees any of it ([`ClearView`]).
     #[inline(always)]
     pub(super) fn sees_spot(&self, y: &Interaction, spot: &Interaction) -> bool {
-        self.scan.clear.seen_from_spots(y) || self.scene.visible_to(y, spot)
+        let clear = &self.scan.clear;
+        !clear.hidden_from_spots(y) && (clear.seen_from_spots(y) || self.scene.visible_to(y, spot))
     }
 
     /// Whether the scan point `x` and the point `y` see each other: no shadow ray where every scan
-    /// point sees `y`'s triangle whole ([`ClearView`]).
+    /// point sees `y`'s triangle whole, or none sees any of it ([`ClearView`]).
     #[inline(always)]
     pub(super) fn sees_scan_point(&self, x: &Interaction, y: &Interaction) -> bool {
-        self.scan.clear.seen_from_scan_points(y) || self.scene.visible_to(x, y)
+        let clear = &self.scan.clear;
+        !clear.hidden_from_scan_points(y)
+            && (clear.seen_from_scan_points(y) || self.scene.visible_to(x, y))
     }
 
     /// The step from `x` to `y`, a hidden-geometry draw (mitransient-model §3.3; density 1/A over

@@ -377,13 +377,17 @@ impl NlosTracer<'_> {
         }
     }
 
-    /// Whether the hidden point `y` may face some scan point: false when every corner of the
+    /// Whether the hidden point `y` may face some scan point: false when a blocker hides its
+    /// triangle from every scan point ([`super::clear_view`]), or when every corner of the
     /// scan points' bounding box lies behind its shading plane (by more than rounding), for then
     /// so does every scan point, and each connection to it would fail its cosine test (a camera's
     /// jittered first vertices have no such box, and a BSDF that scatters behind its surface faces
     /// both ways: always true).
     #[inline]
     fn may_face_scan_points(&self, y: &Interaction) -> bool {
+        if self.scan.clear.hidden_from_scan_points(y) {
+            return false;
+        }
         self.scatters_behind(y)
             || self.scan.scan_box.is_none_or(|[lo, hi]| {
                 (0..8).any(|i| {
