@@ -734,6 +734,25 @@ fn visibility_guide_agrees_and_spends_less_on_unlit_geometry() {
     );
 }
 
+/// Viewpoints on the relay wall of [`scene_props`], as the rays from in front of it find them:
+/// 16 scan points within 0.9 m of its centre and 3 laser spots within 0.3 m.
+fn wall_viewpoints(
+    scene: &Scene,
+    rng: &mut Sampler,
+) -> (
+    Vec<nlos_rs::geometry::Interaction>,
+    Vec<nlos_rs::geometry::Interaction>,
+) {
+    let mut on_wall = |half: f32| {
+        let (u, v) = (rng.next_1d() * 2.0 - 1.0, rng.next_1d() * 2.0 - 1.0);
+        let o = Vec3A::new(u * half, v * half, 0.1);
+        scene.intersect(o, -Vec3A::Z, 1.0).expect("the wall").1
+    };
+    let scan = (0..16).map(|_| on_wall(0.9)).collect();
+    let spots = (0..3).map(|_| on_wall(0.3)).collect();
+    (scan, spots)
+}
+
 /// A face proved hidden from the scan points (or the laser spots) by a blocker
 /// (integrator/clear_view.rs) is: every shadow ray between a point of it and each of them, both
 /// ways round, meets something. Scenes: the base scene, an occluder (a rectangle 1.2 to 3 m wide
@@ -741,7 +760,6 @@ fn visibility_guide_agrees_and_spends_less_on_unlit_geometry() {
 /// cubes behind it, in its shadow, partly out of it or beside it. Many points are flagged.
 #[test]
 fn faces_behind_a_blocker_are_hidden_as_the_rays_say() {
-    use nlos_rs::geometry::Interaction;
     use nlos_rs::integrator::clear_view::ClearView;
     let mut rng = Sampler::new(7, 0, 0);
     let (mut flagged, mut checked) = (0u64, 0u64);
@@ -780,13 +798,7 @@ fn faces_behind_a_blocker_are_hidden_as_the_rays_say() {
             .unwrap();
         }
         let scene = load(&p);
-        let on_wall = |rng: &mut Sampler, half: f32| -> Interaction {
-            let (u, v) = (rng.next_1d() * 2.0 - 1.0, rng.next_1d() * 2.0 - 1.0);
-            let o = Vec3A::new(u * half, v * half, 0.1);
-            scene.intersect(o, -Vec3A::Z, 1.0).expect("the wall").1
-        };
-        let scan: Vec<Interaction> = (0..16).map(|_| on_wall(&mut rng, 0.9)).collect();
-        let spots: Vec<Interaction> = (0..3).map(|_| on_wall(&mut rng, 0.3)).collect();
+        let (scan, spots) = wall_viewpoints(&scene, &mut rng);
         let clear = ClearView::new(
             &scene,
             scan.iter(),
@@ -1335,14 +1347,7 @@ fn clear_views_answer_as_the_rays_do() {
         }
         let scene = load(&p);
         let hidden = scene.hidden_geometry(false);
-        // Viewpoints on the wall (shape "wall"), as the rays from in front of it find them.
-        let on_wall = |rng: &mut Sampler, half: f32| -> Interaction {
-            let (u, v) = (rng.next_1d() * 2.0 - 1.0, rng.next_1d() * 2.0 - 1.0);
-            let o = Vec3A::new(u * half, v * half, 0.1);
-            scene.intersect(o, -Vec3A::Z, 1.0).expect("the wall").1
-        };
-        let scan: Vec<Interaction> = (0..16).map(|_| on_wall(&mut rng, 0.9)).collect();
-        let spots: Vec<Interaction> = (0..3).map(|_| on_wall(&mut rng, 0.3)).collect();
+        let (scan, spots) = wall_viewpoints(&scene, &mut rng);
         let clear = ClearView::new(&scene, scan.iter(), spots.iter(), hidden);
         // The base scene's two rectangles: areas 0.16 m² at z = 0.8 and 0.64 m² at z = 1.2.
         let shape_of = |area: f64, z: f32| {
