@@ -6,7 +6,7 @@
 //! lights, mono and rgb), and `transient_nlos_path` on mitransient's camera files with
 //! hidden-geometry sampling off (two-sided surfaces with two
 //! reflectances, one-sided ones, finite depth, `filter_bounces`, direct paths discarded, first and
-//! last bounces accounted for).
+//! last bounces accounted for) and on tal's scan-point captures (single and confocal).
 
 // Loops over the lanes index several arrays by one lane at once.
 #![allow(clippy::needless_range_loop)]
@@ -1052,8 +1052,67 @@ fn nlos_lockstep_agrees_with_the_scalar_tracer() {
         };
         let capture = Capture::new(scene, *mono, &AtomicBool::new(false)).expect("capture");
         assert!(
-            PathPacket::nlos(scene, nlos, &capture.spots, *mono).is_some()
-                || !nlos_rs::simd::available(),
+            PathPacket::nlos(scene, nlos, &capture, *mono).is_some() || !nlos_rs::simd::available(),
+            "{name}: not lockstep"
+        );
+        agrees_with_the_scalar_tracer(name, scene, *mono);
+    }
+}
+
+/// tal's capture `file` (tests/data/tal021: relay-wall scan points, a Z 1 m behind) with
+/// hidden-geometry sampling off, with `edit` applied to its text.
+fn tal_file(file: &str, edit: impl Fn(String) -> String) -> Scene {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/tal021");
+    let text = std::fs::read_to_string(dir.join(file)).expect("the file");
+    let off = "name=\"nlos_hidden_geometry_sampling\" value=\"false\"";
+    let text = edit(text.replace("name=\"nlos_hidden_geometry_sampling\" value=\"true\"", off));
+    assert!(text.contains(off));
+    let props = nlos_rs::xml::parse(&text, &dir.join(file), &HashMap::new()).expect("parses");
+    Scene::from_props(&props, &dir).expect("valid scene")
+}
+
+/// `transient_nlos_path` in lockstep lanes agrees with the scalar tracer on captures of
+/// relay-wall scan points, whose first vertex is the scan point itself (no camera ray): tal's
+/// confocal capture (each pixel its own laser spot) and its single capture with the laser aimed
+/// at the wall's centre, at unbounded depth and with `filter_bounces`, first and last bounces
+/// accounted for.
+#[test]
+fn scan_point_lockstep_agrees_with_the_scalar_tracer() {
+    let mut single = tal_file("single.xml", |t| t);
+    single.focus_laser_at(Vec3A::ZERO).expect("aimed");
+    let cases: Vec<(&str, Scene, bool)> = vec![
+        (
+            "tal's confocal.xml, mono",
+            tal_file("confocal.xml", |t| t),
+            true,
+        ),
+        (
+            "tal's confocal.xml, filter_bounces 4, first and last bounces accounted for, rgb",
+            tal_file("confocal.xml", |t| {
+                t.replace(
+                    "name=\"filter_bounces\" value=\"-1\"",
+                    "name=\"filter_bounces\" value=\"4\"",
+                )
+                .replace(
+                    "name=\"account_first_and_last_bounces\" value=\"false\"",
+                    "name=\"account_first_and_last_bounces\" value=\"true\"",
+                )
+            }),
+            false,
+        ),
+        (
+            "tal's single.xml, aimed at the wall's centre, mono",
+            single,
+            true,
+        ),
+    ];
+    for (name, scene, mono) in &cases {
+        let Setup::Nlos(nlos) = &scene.setup else {
+            panic!("{name}: an NLOS scene")
+        };
+        let capture = Capture::new(scene, *mono, &AtomicBool::new(false)).expect("capture");
+        assert!(
+            PathPacket::nlos(scene, nlos, &capture, *mono).is_some() || !nlos_rs::simd::available(),
             "{name}: not lockstep"
         );
         agrees_with_the_scalar_tracer(name, scene, *mono);

@@ -314,7 +314,7 @@ impl<'a> NlosTracer<'a> {
                 });
         }
         if lockstep {
-            tracer.packet = PathPacket::nlos(scene, nlos, &tracer.scan.capture.spots, mono);
+            tracer.packet = PathPacket::nlos(scene, nlos, &tracer.scan.capture, mono);
         }
         let judged = hidden.is_some_and(AreaSampler::judges_facing);
         // Per shape a first vertex may lie on (its tests run over every laser spot: once per
