@@ -247,6 +247,11 @@ def workloads(quick: bool):
                                                                  capture_type="confocal"), "mono"),
         "t_two_corners_exhaustive": (lambda: scenes.t_nlos_2corner("small", width=8, height=8, spp=max(1, 8192 // div),
                                                                    capture_type="exhaustive"), "mono"),
+        # The T as tal's generator and mitransient's plugin default it: hidden-geometry sampling off.
+        "t_two_corners_bsdf": (lambda: bsdf_sampling(scenes.t_nlos_2corner("small", width=32, height=32,
+                                                                           spp=max(1, 8192 // div))), "mono"),
+        "t_two_corners_confocal_bsdf": (lambda: bsdf_sampling(scenes.t_nlos_2corner(
+            "small", width=32, height=32, spp=max(1, 8192 // div), capture_type="confocal")), "mono"),
         "cornell_los": (cornell, "mono"),
         "one_pixel": (lambda: z(1 << 22, width=1, height=1), "mono"),
         "z_rgb": (lambda: z(4096, width=32, height=32), "rgb"),
