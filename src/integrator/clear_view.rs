@@ -5,10 +5,11 @@
 //! on that side but apart from the box around the points and the triangle, which holds every
 //! segment between them, is out of reach too (the secondary wall of a two-corner scene, whose
 //! occluder stands beside that box). So the connections of a capture's scan points and laser
-//! spots to that triangle are unoccluded, and need no shadow ray. Likewise a ray that leaves a triangle on a side of its plane where no
-//! hidden geometry lies meets none: the BSDF draw of the mixture at hidden vertices
-//! ([`super::hidden_mixture`]), which keeps only hidden geometry, ends there untraced, and a
-//! vertex whose every side its BSDF leaves by is such a side ends its path before any draw.
+//! spots to that triangle are unoccluded, and need no shadow ray. Likewise a ray that leaves a
+//! triangle on a side of its plane where no hidden geometry lies meets none: the BSDF draw of the
+//! mixture at hidden vertices ([`super::hidden_mixture`]), which keeps only hidden geometry, ends
+//! there untraced, and a vertex whose every side its BSDF leaves by is such a side ends its path
+//! before any draw.
 //!
 //! The other way round, a face can be proved hidden from every scan point (or laser spot): a
 //! planar shape whose triangles make one convex polygon (a rectangle: the occluder of a
