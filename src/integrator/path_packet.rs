@@ -5,9 +5,10 @@
 //! box), and the NLOS tracer of [`super::nlos`] where a camera or a relay-wall scan point gives
 //! each path's first vertex and laser sampling connects every vertex to the laser spot (a single
 //! capture's, or a confocal pixel's own), hidden-geometry sampling off (mitransient's camera
-//! files; tal's scenes as its generator writes them, behind two corners above all). Each lane is one sample of the same pixel; the lanes advance a
-//! bounce at a time together, and a lane whose path has ended takes the pixel's next sample at
-//! once, so the lanes stay full until the pixel's last samples. The rays of the lanes are traced
+//! files; tal's scenes as its generator writes them, behind two corners above all). Each lane is
+//! one sample of the same pixel; the lanes advance a bounce at a time together, and a lane whose
+//! path has ended takes the pixel's next sample at once, so the lanes stay full until the pixel's
+//! last samples. The rays of the lanes are traced
 //! together, eight to a vector ([`crate::geometry::ray_packet`]), and the steps between them are
 //! branch-free arithmetic on eight lanes ([`crate::simd::F8`], AVX2 picked at run time): light
 //! sampling (a light part, or the laser spot as a part of one point), cosine-weighted BSDF sampling,
