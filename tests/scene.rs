@@ -756,13 +756,23 @@ fn wall_viewpoints(
 /// A face proved hidden from the scan points (or the laser spots) by a blocker
 /// (integrator/clear_view.rs) is: every shadow ray between a point of it and each of them, both
 /// ways round, meets something. Scenes: the base scene, an occluder (a rectangle 1.2 to 3 m wide
-/// at z = 1.5, tilted at random), a rectangle through it (across its plane), and rectangles and
-/// cubes behind it, in its shadow, partly out of it or beside it. Many points are flagged.
+/// at z = 1.5, tilted at random, or an L in its place), a rectangle through it (across its
+/// plane), and rectangles and cubes behind it, in its shadow, partly out of it or beside it. Many
+/// points are flagged.
 #[test]
 fn faces_behind_a_blocker_are_hidden_as_the_rays_say() {
     use nlos_rs::integrator::clear_view::ClearView;
     let mut rng = Sampler::new(7, 0, 0);
     let (mut flagged, mut checked) = (0u64, 0u64);
+    // An L of three unit squares in z = 0, its vertices shared.
+    let l_shape =
+        std::env::temp_dir().join(format!("nlos_rs_l_occluder_{}.obj", std::process::id()));
+    std::fs::write(
+        &l_shape,
+        "v -1 -1 0\nv 0 -1 0\nv 1 -1 0\nv -1 0 0\nv 0 0 0\nv 1 0 0\nv -1 1 0\nv 0 1 0\n\
+         f 1 2 5\nf 1 5 4\nf 2 3 6\nf 2 6 5\nf 4 5 8\nf 4 8 7\n",
+    )
+    .expect("scratch file");
     for case in 0..40 {
         let mut p = scene_props(vec![], vec![]);
         let mut r = |lo: f64, hi: f64| lo + (hi - lo) * rng.next_1d() as f64;
@@ -770,11 +780,20 @@ fn faces_behind_a_blocker_are_hidden_as_the_rays_say() {
             * DMat4::from_rotation_x(std::f64::consts::PI + r(-0.3, 0.3))
             * DMat4::from_rotation_y(r(-0.3, 0.3))
             * DMat4::from_scale(DVec3::splat(r(0.6, 1.5)));
-        p.insert(
-            "occluder",
-            obj("rectangle", vec![("to_world", Value::Matrix(occluder))]),
-        )
-        .unwrap();
+        // Every other case, an L in place of the rectangle (a notch where its +x, +y quarter
+        // would be): planar but not convex, so no blocker.
+        let shape = if case % 2 == 0 {
+            obj("rectangle", vec![("to_world", Value::Matrix(occluder))])
+        } else {
+            obj(
+                "obj",
+                vec![
+                    ("filename", Value::Str(l_shape.display().to_string())),
+                    ("to_world", Value::Matrix(occluder)),
+                ],
+            )
+        };
+        p.insert("occluder", shape).unwrap();
         // A rectangle through the occluder, across its plane, clear of the base rectangles'
         // shadows: part of it is in plain view.
         let through = DMat4::from_translation(DVec3::new(r(0.5, 0.7), r(-0.7, -0.5), 1.5))
@@ -828,6 +847,7 @@ fn faces_behind_a_blocker_are_hidden_as_the_rays_say() {
             }
         }
     }
+    std::fs::remove_file(&l_shape).expect("scratch file");
     println!("{flagged} points hidden, {checked} shadow rays checked");
     assert!(flagged > 10_000, "{flagged} points hidden");
 }
