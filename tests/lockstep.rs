@@ -1046,7 +1046,13 @@ fn nlos_lockstep_agrees_with_the_scalar_tracer() {
         ),
     ];
     std::fs::remove_file(&room_sphere).expect("scratch file");
-    for (name, scene, mono) in &cases {
+    nlos_lanes_agree(&cases);
+}
+
+/// Each NLOS case (name, scene, mono) is rendered in lanes (where the CPU has them) and agrees
+/// with the scalar tracer ([`agrees_with_the_scalar_tracer`]).
+fn nlos_lanes_agree(cases: &[(&str, Scene, bool)]) {
+    for (name, scene, mono) in cases {
         let Setup::Nlos(nlos) = &scene.setup else {
             panic!("{name}: an NLOS scene")
         };
@@ -1106,15 +1112,5 @@ fn scan_point_lockstep_agrees_with_the_scalar_tracer() {
             true,
         ),
     ];
-    for (name, scene, mono) in &cases {
-        let Setup::Nlos(nlos) = &scene.setup else {
-            panic!("{name}: an NLOS scene")
-        };
-        let capture = Capture::new(scene, *mono, &AtomicBool::new(false)).expect("capture");
-        assert!(
-            PathPacket::nlos(scene, nlos, &capture, *mono).is_some() || !nlos_rs::simd::available(),
-            "{name}: not lockstep"
-        );
-        agrees_with_the_scalar_tracer(name, scene, *mono);
-    }
+    nlos_lanes_agree(&cases);
 }
