@@ -873,6 +873,40 @@ fn lockstep_agrees_with_the_scalar_tracer() {
         ),
         false,
     ));
+    // General BSDFs, evaluated and sampled lane by lane.
+    cases.push((
+        "a rough conductor small box and a rough plastic large box (GGX), rgb",
+        cbox_boxes(
+            "<bsdf type=\"roughconductor\"><float name=\"alpha\" value=\"0.2\"/></bsdf>",
+            "<bsdf type=\"roughplastic\"><string name=\"distribution\" value=\"ggx\"/>\
+             <float name=\"alpha\" value=\"0.1\"/>\
+             <rgb name=\"diffuse_reflectance\" value=\"0.2, 0.5, 0.7\"/></bsdf>",
+        ),
+        false,
+    ));
+    // (A glossy floor mirrors the light, where a light sample's weight against BSDF sampling
+    // counts most.)
+    cases.push((
+        "a smooth plastic small box, a blend of diffuse and rough gold as the large box and a \
+         glossy floor (Beckmann, alpha 0.05), mono",
+        cbox_edited(
+            "<bsdf type=\"plastic\"/>",
+            "<bsdf type=\"blendbsdf\"><float name=\"weight\" value=\"0.4\"/>\
+             <bsdf type=\"diffuse\"/><bsdf type=\"roughconductor\">\
+             <string name=\"material\" value=\"Au\"/><float name=\"alpha\" value=\"0.3\"/>\
+             </bsdf></bsdf>",
+            |t| {
+                let floor = "value=\"meshes/cbox_floor.obj\"/>\n        <ref id=\"white\"/>";
+                assert!(t.contains(floor));
+                t.replace(
+                    floor,
+                    "value=\"meshes/cbox_floor.obj\"/><bsdf type=\"roughconductor\">\
+                     <float name=\"alpha\" value=\"0.05\"/></bsdf>",
+                )
+            },
+        ),
+        true,
+    ));
     std::fs::remove_file(&obj).expect("scratch file");
     std::fs::remove_file(&tri).expect("scratch file");
     std::fs::remove_file(&pane).expect("scratch file");
@@ -913,7 +947,13 @@ fn agrees_with_the_scalar_tracer(name: &str, scene: &Scene, mono: bool) {
 /// mitransient's Cornell box (6×6 pixels) with the BSDFs of its small and large boxes replaced
 /// by `small` and `large` (XML).
 fn cbox_boxes(small: &str, large: &str) -> Scene {
+    cbox_edited(small, large, |t| t)
+}
+
+/// [`cbox_boxes`], with `edit` applied to the text first.
+fn cbox_edited(small: &str, large: &str, edit: impl Fn(String) -> String) -> Scene {
     cbox(6, |t| {
+        let t = edit(t);
         let was =
             |name: &str| format!("value=\"meshes/cbox_{name}.obj\"/>\n        <ref id=\"gray\"/>");
         let now = |name: &str, bsdf: &str| format!("value=\"meshes/cbox_{name}.obj\"/>{bsdf}");
@@ -1009,6 +1049,17 @@ fn nlos_lockstep_agrees_with_the_scalar_tracer() {
                 ), 1)
             }),
             true,
+        ),
+        (
+            "nlos-z-room.xml, the Z in rough plastic (a general BSDF), rgb",
+            nlos_file("nlos-z-room.xml", |t| {
+                t.replace(
+                    "value=\"meshes/hidden_geometry_Z.ply\"/>\n\t\t<ref id=\"default-bsdf\" name=\"bsdf\"/>",
+                    "value=\"meshes/hidden_geometry_Z.ply\"/><bsdf type=\"roughplastic\">\
+                     <float name=\"alpha\" value=\"0.2\"/></bsdf>",
+                )
+            }),
+            false,
         ),
         (
             "nlos-z-room.xml with a curved sphere of 100 triangles beside the Z (packet and tree), rgb",

@@ -34,7 +34,12 @@ impl Microfacet {
         let c2 = m.z * m.z;
         let xy = m.x * m.x + m.y * m.y;
         let d = match self.kind {
-            Distribution::Beckmann => (-xy / (a2 * c2)).exp() / (PI * a2 * c2 * c2),
+            // (Below e^-87, D·cos θ_m is under the cut below for every α read, 1e-4 to 1e3:
+            // no call to exp, whose underflow is slow.)
+            Distribution::Beckmann => match -xy / (a2 * c2) {
+                e if e < -87.0 => 0.0,
+                e => e.exp() / (PI * a2 * c2 * c2),
+            },
             Distribution::Ggx => {
                 let t = xy / a2 + c2;
                 1.0 / (PI * a2 * t * t)
@@ -101,6 +106,12 @@ impl Microfacet {
             return 0.0;
         }
         let h = (wi + wo).normalize();
-        self.pdf(h) / (4.0 * wo.dot(h))
+        Self::reflection_pdf_at(wo, h, self.d(h))
+    }
+
+    /// [`Microfacet::reflection_pdf`] given the half vector `h` and D(h) = `d`.
+    #[inline]
+    pub fn reflection_pdf_at(wo: Vec3A, h: Vec3A, d: f32) -> f32 {
+        d * h.z.max(0.0) / (4.0 * wo.dot(h))
     }
 }

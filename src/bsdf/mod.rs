@@ -34,6 +34,7 @@ use crate::math::{Frame, Spectrum};
 use crate::props::{Colour, Props};
 use crate::sampling::Sampler;
 use glam::{Vec2, Vec3A};
+use microfacet::Microfacet;
 
 /// A BSDF, with spectral parameters of type `S` ([`Colour`] as read, [`Spectrum`] to render).
 #[derive(Clone, Debug)]
@@ -102,24 +103,55 @@ impl BsdfSample {
     }
 }
 
-/// A smooth BSDF defined in its local shading frame (z = shading normal, one-sided), with a
-/// proposal of outgoing directions; the world-space evaluation, density and sampling follow.
+/// A microfacet BSDF (a rough conductor, a rough coating over a base) defined in its local
+/// shading frame (z = shading normal, one-sided) through the half vector h of the two directions
+/// and the density D(h) of its normals, with a proposal of outgoing directions; the local and
+/// world-space evaluation, density and sampling follow, h and D(h) found once for both.
 pub(crate) trait LocalBsdf {
-    /// f·cos θ_o for local directions.
-    fn eval_local(&self, wi: Vec3A, wo: Vec3A) -> Option<Spectrum>;
-    /// Density of the directions [`LocalBsdf::propose`] gives.
-    fn pdf_local(&self, wi: Vec3A, wo: Vec3A) -> f32;
+    /// The distribution of microfacet normals.
+    fn microfacet(&self) -> &Microfacet;
+    /// f·cos θ_o for local directions above the surface, of half vector `h` and D(h) = `d`.
+    fn eval_half(&self, wi: Vec3A, wo: Vec3A, h: Vec3A, d: f32) -> Option<Spectrum>;
+    /// Density of the directions [`LocalBsdf::propose`] gives, likewise.
+    fn pdf_half(&self, wi: Vec3A, wo: Vec3A, h: Vec3A, d: f32) -> f32;
     /// A local outgoing direction for local `wi` (above the surface).
     fn propose(&self, wi: Vec3A, rng: &mut Sampler) -> Vec3A;
 
+    /// The half vector of local `wi` and `wo` and D there, if both lie above the surface.
+    #[inline]
+    fn half(&self, wi: Vec3A, wo: Vec3A) -> Option<(Vec3A, f32)> {
+        if wi.z <= 0.0 || wo.z <= 0.0 {
+            return None;
+        }
+        let h = (wi + wo).normalize();
+        Some((h, self.microfacet().d(h)))
+    }
+
+    /// f·cos θ_o and the density of `wo`, for local directions.
+    fn eval_pdf_local(&self, wi: Vec3A, wo: Vec3A) -> (Option<Spectrum>, f32) {
+        match self.half(wi, wo) {
+            Some((h, d)) => (self.eval_half(wi, wo, h, d), self.pdf_half(wi, wo, h, d)),
+            None => (None, 0.0),
+        }
+    }
+
     fn eval_world(&self, ns: Vec3A, wi: Vec3A, wo: Vec3A) -> Option<Spectrum> {
         let f = Frame::new(ns);
-        self.eval_local(f.to_local(wi), f.to_local(wo))
+        let (wi, wo) = (f.to_local(wi), f.to_local(wo));
+        let (h, d) = self.half(wi, wo)?;
+        self.eval_half(wi, wo, h, d)
     }
 
     fn pdf_world(&self, ns: Vec3A, wi: Vec3A, wo: Vec3A) -> f32 {
         let f = Frame::new(ns);
-        self.pdf_local(f.to_local(wi), f.to_local(wo))
+        let (wi, wo) = (f.to_local(wi), f.to_local(wo));
+        self.half(wi, wo)
+            .map_or(0.0, |(h, d)| self.pdf_half(wi, wo, h, d))
+    }
+
+    fn eval_pdf_world(&self, ns: Vec3A, wi: Vec3A, wo: Vec3A) -> (Option<Spectrum>, f32) {
+        let f = Frame::new(ns);
+        self.eval_pdf_local(f.to_local(wi), f.to_local(wo))
     }
 
     fn sample_world(&self, ns: Vec3A, wi: Vec3A, rng: &mut Sampler) -> Option<BsdfSample> {
@@ -129,8 +161,8 @@ pub(crate) trait LocalBsdf {
             return None;
         }
         let wo_l = self.propose(wi_l, rng);
-        let value = self.eval_local(wi_l, wo_l)?;
-        let pdf = self.pdf_local(wi_l, wo_l);
+        let (value, pdf) = self.eval_pdf_local(wi_l, wo_l);
+        let value = value?;
         (pdf > 0.0).then(|| BsdfSample {
             wo: f.to_world(wo_l),
             weight: value / pdf,
@@ -324,6 +356,17 @@ impl Bsdf<Spectrum> {
             Bsdf::Plastic(p) => p.pdf(ns, wi, wo),
             Bsdf::RoughPlastic(p) => p.pdf_world(ns, wi, wo),
             Bsdf::Blend(b) => b.pdf(ns, wi, wo),
+        }
+    }
+
+    /// [`Self::eval`] and [`Self::pdf`] at once (a microfacet BSDF finds its half vector and
+    /// D there once for both).
+    #[inline]
+    pub fn eval_pdf(&self, ns: Vec3A, wi: Vec3A, wo: Vec3A) -> (Option<Spectrum>, f32) {
+        match self {
+            Bsdf::RoughConductor(c) => c.eval_pdf_world(ns, wi, wo),
+            Bsdf::RoughPlastic(p) => p.eval_pdf_world(ns, wi, wo),
+            _ => (self.eval(ns, wi, wo), self.pdf(ns, wi, wo)),
         }
     }
 

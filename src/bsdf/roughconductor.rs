@@ -101,12 +101,11 @@ impl RoughConductor<Colour> {
 }
 
 impl LocalBsdf for RoughConductor<Spectrum> {
-    fn eval_local(&self, wi: Vec3A, wo: Vec3A) -> Option<Spectrum> {
-        if wi.z <= 0.0 || wo.z <= 0.0 {
-            return None;
-        }
-        let h = (wi + wo).normalize();
-        let d = self.microfacet.d(h);
+    fn microfacet(&self) -> &Microfacet {
+        &self.microfacet
+    }
+
+    fn eval_half(&self, wi: Vec3A, wo: Vec3A, h: Vec3A, d: f32) -> Option<Spectrum> {
         if d == 0.0 {
             return None;
         }
@@ -115,8 +114,8 @@ impl LocalBsdf for RoughConductor<Spectrum> {
         Some(f * self.specular_reflectance * value)
     }
 
-    fn pdf_local(&self, wi: Vec3A, wo: Vec3A) -> f32 {
-        self.microfacet.reflection_pdf(wi, wo)
+    fn pdf_half(&self, _wi: Vec3A, wo: Vec3A, h: Vec3A, d: f32) -> f32 {
+        Microfacet::reflection_pdf_at(wo, h, d)
     }
 
     /// Reflect `wi` about a microfacet normal drawn ∝ D·cos θ_m.

@@ -179,12 +179,11 @@ impl RoughPlastic<Spectrum> {
 }
 
 impl LocalBsdf for RoughPlastic<Spectrum> {
-    fn eval_local(&self, wi: Vec3A, wo: Vec3A) -> Option<Spectrum> {
-        if wi.z <= 0.0 || wo.z <= 0.0 {
-            return None;
-        }
-        let h = (wi + wo).normalize();
-        let d = self.microfacet.d(h);
+    fn microfacet(&self) -> &Microfacet {
+        &self.microfacet
+    }
+
+    fn eval_half(&self, wi: Vec3A, wo: Vec3A, h: Vec3A, d: f32) -> Option<Spectrum> {
         let f = fresnel::dielectric(wi.dot(h), self.eta).0;
         let spec =
             self.specular_reflectance * (f * d * self.microfacet.g(wi, wo, h) / (4.0 * wi.z));
@@ -199,12 +198,9 @@ impl LocalBsdf for RoughPlastic<Spectrum> {
         Some(spec + diffuse)
     }
 
-    fn pdf_local(&self, wi: Vec3A, wo: Vec3A) -> f32 {
-        if wi.z <= 0.0 || wo.z <= 0.0 {
-            return 0.0;
-        }
+    fn pdf_half(&self, wi: Vec3A, wo: Vec3A, h: Vec3A, d: f32) -> f32 {
         let ps = self.prob_specular(self.t(wi.z));
-        ps * self.microfacet.reflection_pdf(wi, wo) + (1.0 - ps) * wo.z * FRAC_1_PI
+        ps * Microfacet::reflection_pdf_at(wo, h, d) + (1.0 - ps) * wo.z * FRAC_1_PI
     }
 
     /// The coating's microfacet reflection or the base's cosine-weighted scattering.

@@ -1,7 +1,8 @@
 //! Paths traced eight at a time, in lockstep lanes, for the scenes they are most run on — a few
-//! dozen flat triangles (and meshes, spheres and disks beside them: [`Split`]), every surface
+//! dozen flat triangles (and meshes, spheres and disks beside them: [`Split`]), most surfaces
 //! Lambertian (`diffuse`, or a `twosided` pair), smooth glass (`dielectric`) or a smooth mirror
-//! (`conductor`): the line-of-sight path tracer of [`super::path`] lit by area lights (a Cornell
+//! (`conductor`), the others evaluated and sampled lane by lane by their own BSDFs (rough
+//! metals and plastics, blends: [`Surface::general`]): the line-of-sight path tracer of [`super::path`] lit by area lights (a Cornell
 //! box), and the NLOS tracer of [`super::nlos`] where a camera or a relay-wall scan point gives
 //! each path's first vertex and laser sampling connects every vertex to the laser spot (a single
 //! capture's, or a confocal pixel's own), hidden-geometry sampling off (mitransient's camera
@@ -23,6 +24,7 @@
 //! Russian-roulette and time-origin settings. What differs:
 //! - **Random numbers** are counter-based ([`crate::sampling::lane_uniform`]): the d-th number of a
 //!   sample is a hash of its key and d, so a lane's numbers do not depend on the other lanes.
+//!   A general BSDF draws its own from a stream of the lane's sample and depth.
 //! - **Rays start on the surface** and skip the triangles of its plane, and a shadow ray those of
 //!   its light point's plane, instead of being offset off them ([`crate::geometry::ray_packet`]).
 //!   Scenes of more triangles than the packet test takes, or with spheres and disks (a mesh in a
@@ -51,7 +53,7 @@ use crate::geometry::ray_packet::{
 use crate::geometry::{Prim, offset_origin, segment_from};
 use crate::math::{RAY_EPS, Spectrum, frame_axes};
 use crate::sampling::{
-    lane_key, lane_uniform, square_to_uniform_disk_concentric_lanes as square_to_disk,
+    Sampler, lane_key, lane_uniform, square_to_uniform_disk_concentric_lanes as square_to_disk,
     square_to_uniform_triangle_lanes as square_to_triangle,
 };
 use crate::scene::{Los, Nlos, Scene};
@@ -73,6 +75,9 @@ const LIGHT_POINT: u32 = 3;
 /// (Glass takes the first for its choice of reflection or refraction.)
 const BSDF_DIRECTION: u32 = 5;
 const ROULETTE: u32 = 7;
+/// The stream key of a general BSDF's numbers ([`PathPacket::general_samples`]: a [`Sampler`]
+/// per lane, sample and depth, apart from the slots above).
+const GENERAL_STREAM: u64 = 0x6765_6e65_7261_6c00;
 
 type F = [f32; L];
 type U = [u32; L];
@@ -230,6 +235,10 @@ struct Surface {
     /// η + ik is [`PathPacket::conductors`]'; else `u32::MAX` (the index kept here, a surface,
     /// which the lanes read at every hit, is 24 bytes smaller than with the index itself).
     conductor: u32,
+    /// Any other BSDF (rough, plastic, blended, a mask; not emitting), instead: its shape, whose
+    /// BSDF ([`PathPacket::bsdfs`]) each lane on it evaluates and samples on its own, as the
+    /// scalar tracers do; else `u32::MAX`.
+    general: u32,
     /// Plane key ([`PacketScene::plane`]).
     plane: f32,
     /// Index in `emitters` of the area light the triangle belongs to, or `u32::MAX`.
@@ -398,20 +407,28 @@ pub struct PathPacket<'a> {
     /// Per shape, its complex index η + ik as (η, k) where it is a `conductor` (read for
     /// [`Surface::conductor`]).
     conductors: Vec<[[f32; 3]; 2]>,
+    /// Per shape, its BSDF, where some surface is [`Surface::general`] (else empty).
+    bsdfs: Vec<Bsdf<Spectrum>>,
     mono: bool,
-    /// Some surface is glass or a mirror (a delta: what `GLASS` compiles in).
+    /// Some surface is glass, a mirror or general (what `GLASS` compiles in: deltas, refraction
+    /// and BSDFs evaluated lane by lane).
     glass: bool,
 }
 
 /// The primitives of a scene as lanes read them: the geometry, each one's surface and normals,
 /// and each shape's complex index where it is a `conductor`.
-type LaneSurfaces = (Geometry, Vec<Surface>, Vec<Smooth>, Vec<[[f32; 3]; 2]>);
+type LaneSurfaces = (
+    Geometry,
+    Vec<Surface>,
+    Vec<Smooth>,
+    Vec<[[f32; 3]; 2]>,
+    Vec<Bsdf<Spectrum>>,
+);
 
 /// The lockstep form of `scene`'s primitives, if they are at most
 /// [`crate::geometry::ray_packet::MAX_TRIANGLES`] triangles or, with `split`, at most
 /// [`MAX_SPLIT_PRIMITIVES`] triangles, spheres and disks (lights on triangles only), and its every
-/// BSDF `diffuse`, a `twosided` pair of them, or a smooth `dielectric` or `conductor` (not
-/// emitting); `shape_emitter`: per shape, the index of its area light or `u32::MAX`.
+/// emitting surface Lambertian (`diffuse`, or a `twosided` pair of them); `shape_emitter`: per shape, the index of its area light or `u32::MAX`.
 fn lane_surfaces(
     scene: &Scene,
     shape_emitter: &[u32],
@@ -477,33 +494,28 @@ fn lane_surfaces(
                 (n, n, false, normals)
             }
         };
-        let (albedo, two_sided, eta, conductor) = match &bsdfs[shape] {
-            Bsdf::Diffuse(d) => ([d.reflectance.to_array(); 2], false, None, u32::MAX),
-            Bsdf::TwoSided(t) => match (&*t.front, &*t.back) {
-                (Bsdf::Diffuse(f), Bsdf::Diffuse(b)) => (
-                    [f.reflectance.to_array(), b.reflectance.to_array()],
-                    true,
-                    None,
-                    u32::MAX,
-                ),
-                _ => return None,
-            },
-            // (No light sample is taken on glass or a mirror, nor found on it.)
-            Bsdf::Dielectric(g) if emitter == u32::MAX => {
-                let tints = [g.specular_reflectance, g.specular_transmittance];
-                (tints.map(|t| t.to_array()), false, Some(g.eta), u32::MAX)
+        let (mut albedo, mut two_sided, mut eta) = ([[0.0; 3]; 2], false, None);
+        let (mut conductor, mut general) = (u32::MAX, u32::MAX);
+        match &bsdfs[shape] {
+            Bsdf::Diffuse(d) => albedo = [d.reflectance.to_array(); 2],
+            Bsdf::TwoSided(t)
+                if matches!((&*t.front, &*t.back), (Bsdf::Diffuse(_), Bsdf::Diffuse(_))) =>
+            {
+                let side = |b: &Bsdf<Spectrum>| b.albedo().unwrap_or_default().to_array();
+                (albedo, two_sided) = ([side(&t.front), side(&t.back)], true);
             }
-            Bsdf::Conductor(m) if emitter == u32::MAX => {
+            // (No light sample is taken on the others, nor found on them.)
+            _ if emitter != u32::MAX => return None,
+            Bsdf::Dielectric(g) => {
+                albedo = [g.specular_reflectance, g.specular_transmittance].map(|t| t.to_array());
+                eta = Some(g.eta);
+            }
+            Bsdf::Conductor(m) => {
                 conductors[shape] = [m.eta.to_array(), m.k.to_array()];
-                (
-                    [m.specular_reflectance.to_array(); 2],
-                    false,
-                    None,
-                    shape as u32,
-                )
+                (albedo, conductor) = ([m.specular_reflectance.to_array(); 2], shape as u32);
             }
-            _ => return None,
-        };
+            _ => general = shape as u32,
+        }
         smooth.push(normals);
         let (n, ng) = (ns * sign, ng * sign);
         surfaces.push(Surface {
@@ -514,12 +526,15 @@ fn lane_surfaces(
             dielectric: eta.is_some(),
             eta: eta.unwrap_or(1.0),
             conductor,
+            general,
             plane: geometry.packet().plane(i as u32),
             emitter,
             curved,
         });
     }
-    Some((geometry, surfaces, smooth, conductors))
+    let general = surfaces.iter().any(|s| s.general != u32::MAX);
+    let bsdfs = if general { bsdfs } else { Vec::new() };
+    Some((geometry, surfaces, smooth, conductors, bsdfs))
 }
 
 impl<'a> PathPacket<'a> {
@@ -555,7 +570,7 @@ impl<'a> PathPacket<'a> {
                 falloff,
             });
         }
-        let (geometry, surfaces, smooth, conductors) =
+        let (geometry, surfaces, smooth, conductors, bsdfs) =
             lane_surfaces(scene, &shape_emitter, mono, true)?;
         // The light parts: each light triangle, but the two of a parallelogram as one where they
         // share both normals (a light sample's cosines are taken with its part's).
@@ -604,7 +619,7 @@ impl<'a> PathPacket<'a> {
         let st = &los.settings;
         let glass = surfaces
             .iter()
-            .any(|s| s.dielectric || s.conductor != u32::MAX);
+            .any(|s| s.dielectric || s.conductor != u32::MAX || s.general != u32::MAX);
         Some(Self {
             start: Start::Camera(&los.camera),
             rules: Rules {
@@ -630,6 +645,7 @@ impl<'a> PathPacket<'a> {
             emitters,
             smooth,
             conductors,
+            bsdfs,
             mono,
             glass,
         })
@@ -677,7 +693,7 @@ impl<'a> PathPacket<'a> {
         // Scan points' paths take meshes past the packet test in the scalar tracer: in lanes,
         // beside a tree, the 200k-triangle mesh's confocal capture ran 0.74× as fast.
         let split = matches!(start, Start::Camera(_));
-        let (geometry, surfaces, smooth, conductors) =
+        let (geometry, surfaces, smooth, conductors, bsdfs) =
             lane_surfaces(scene, &vec![u32::MAX; scene.shapes.len()], mono, split)?;
         let spots = spots
             .iter()
@@ -708,7 +724,7 @@ impl<'a> PathPacket<'a> {
             .collect::<Option<Vec<_>>>()?;
         let glass = surfaces
             .iter()
-            .any(|s| s.dielectric || s.conductor != u32::MAX);
+            .any(|s| s.dielectric || s.conductor != u32::MAX || s.general != u32::MAX);
         Some(Self {
             start,
             rules: Rules {
@@ -732,6 +748,7 @@ impl<'a> PathPacket<'a> {
             falloff: false,
             smooth,
             conductors,
+            bsdfs,
             mono,
             glass,
         })
@@ -866,6 +883,7 @@ impl<'a> PathPacket<'a> {
             // What each lane hit, gathered into lanes.
             let mut hit = Lanes::<C>::default();
             let (mut curved, mut two_sided, mut glass, mut mirror) = (0, 0, 0, 0);
+            let (mut general, mut shape) = (0, [u32::MAX; L]);
             let mut ior = [1.0; L];
             for l in 0..L {
                 if prim[l] == u32::MAX {
@@ -892,6 +910,9 @@ impl<'a> PathPacket<'a> {
                 two_sided |= (s.two_sided as u32) << l;
                 glass |= ((GLASS && s.dielectric) as u32) << l;
                 mirror |= ((GLASS && s.conductor != u32::MAX) as u32) << l;
+                if GLASS && s.general != u32::MAX {
+                    (general, shape[l]) = (general | 1 << l, s.general);
+                }
             }
             let tv = F8::load(&t);
             let o = p.ray.o.each_ref().map(F8::load);
@@ -945,9 +966,10 @@ impl<'a> PathPacket<'a> {
             for l in 0..L {
                 let depth = p.depth[l];
                 // Paths at their last vertex, and those that meet a surface from behind (a
-                // one-sided BSDF neither reflects nor connects there; glass has two sides), end.
+                // one-sided BSDF neither reflects nor connects there; glass has two sides, and
+                // a general BSDF answers for its own), end.
                 if depth.saturating_add(1) >= st.max_depth
-                    || (glass >> l & 1 == 0 && !(cos_i[l] > 0.0))
+                    || ((glass | general) >> l & 1 == 0 && !(cos_i[l] > 0.0))
                 {
                     p.alive &= !(1 << l);
                 }
@@ -1028,6 +1050,25 @@ impl<'a> PathPacket<'a> {
                 let v = beta[c] * albedo[c] * light.radiance[c] * weight;
                 lit[c] = F8::select(lights, v, b(0.0)).store();
             }
+            // (Lanes on general surfaces: their BSDFs' own values and densities.)
+            let lanes = (alive & M8::from_bits(connects & general) & cos_l.gt(b(0.0))).bits();
+            if GLASS && lanes != 0 {
+                let lanes = match spot {
+                    Some(_) => lanes & light.plane.ne(F8::load(&hit.plane)).bits(),
+                    None => lanes,
+                };
+                let lit_general = self.general_lights(
+                    lanes,
+                    &shape,
+                    [&n, &d, &w].map(|v| v.map(F8::store)),
+                    [r2, cos_l, light.area_pdf].map(F8::store),
+                    (light.ng.map(F8::store), light.radiance.map(F8::store)),
+                    spot.is_some(),
+                    &beta.map(F8::store),
+                    &mut lit,
+                );
+                lights = M8::from_bits(lights.bits() & !general | lit_general);
+            }
             if self.falloff {
                 lights = self.fall_off(&light.emitter, &cos_l.store(), lights, &mut lit);
             }
@@ -1077,6 +1118,12 @@ impl<'a> PathPacket<'a> {
             if GLASS {
                 p.delta = glass | mirror;
             }
+            if GLASS && general & p.alive != 0 {
+                let nd = [n, d].map(|v| v.map(F8::store));
+                let mut w = weight.map(F8::store);
+                self.general_samples(general & p.alive, &shape, nd, &mut p, &mut w);
+                weight = w.map(|c| F8::load(&c));
+            }
             if GLASS && glass & p.alive != 0 {
                 let g = M8::from_bits(glass);
                 let s = dielectric_sample(n, d, cos_front, F8::load(&ior), F8::load(&v1));
@@ -1096,7 +1143,9 @@ impl<'a> PathPacket<'a> {
                     let r = n[a].mul_add(c2, d[a]);
                     p.ray.d[a] = F8::select(m, r, F8::load(&p.ray.d[a])).store();
                 }
-                self.mirror_weights(mirror & p.alive, &prim, &cos_i, &mut weight);
+                let mut w = weight.map(F8::store);
+                self.mirror_weights(mirror & p.alive, &prim, &cos_i, &mut w);
+                weight = w.map(|c| F8::load(&c));
             }
             let beta: [F8; C] = std::array::from_fn(|c| beta[c] * weight[c]);
             // Russian roulette weighs β by η² (the radiance scaling of refraction does not end a
@@ -1285,14 +1334,7 @@ impl PathPacket<'_> {
     /// `conductor`s `prim`, met at the cosines `cos_i`): the Fresnel reflectance times the
     /// specular reflectance ([`crate::bsdf::conductor::Conductor::sample`]), into `weight`.
     #[inline(never)]
-    fn mirror_weights<const C: usize>(
-        &self,
-        lanes: u32,
-        prim: &U,
-        cos_i: &F,
-        weight: &mut [F8; C],
-    ) {
-        let mut w = weight.map(F8::store);
+    fn mirror_weights<const C: usize>(&self, lanes: u32, prim: &U, cos_i: &F, w: &mut [F; C]) {
         let mut left = lanes;
         while left != 0 {
             let l = left.trailing_zeros() as usize;
@@ -1306,7 +1348,91 @@ impl PathPacket<'_> {
                 w[c][l] = f[c] * s.albedo[0][c];
             }
         }
-        *weight = w.map(|c| F8::load(&c));
+    }
+
+    /// Next-event estimates of the lanes `lanes` on general surfaces (`shape`; their normals,
+    /// the directions they were reached along and those to their light points, at squared
+    /// distances `r2`, leaving the light at the cosines `cos_l`; the light's density per area,
+    /// normal and radiance), as
+    /// [`super::path`]'s and [`super::nlos`]'s light samples make them: the BSDF's f·cos, and
+    /// for an area light the weight against the BSDF's own density; into `lit`. Returns the
+    /// lanes lit (a bit per lane).
+    #[allow(clippy::too_many_arguments)]
+    #[inline(never)]
+    fn general_lights<const C: usize>(
+        &self,
+        lanes: u32,
+        shape: &U,
+        [n, d, w]: [[F; 3]; 3],
+        [r2, cos_l, area_pdf]: [F; 3],
+        (ng, radiance): ([F; 3], [F; C]),
+        spot: bool,
+        beta: &[F; C],
+        lit: &mut [F; C],
+    ) -> u32 {
+        let (mut left, mut bits) = (lanes, 0);
+        while left != 0 {
+            let l = left.trailing_zeros() as usize;
+            left &= left - 1;
+            let bsdf = &self.bsdfs[shape[l] as usize];
+            let (ns, wi, wo) = (lane(&n, l), -lane(&d, l), lane(&w, l));
+            if bsdf.is_delta() {
+                continue;
+            }
+            let weight;
+            let f = if spot {
+                weight = cos_l[l] / r2[l];
+                bsdf.eval(ns, wi, wo)
+            } else {
+                let (f, pdf) = bsdf.eval_pdf(ns, wi, wo);
+                let light_pdf = r2[l] * area_pdf[l] / lane(&ng, l).dot(wo).abs();
+                weight = mis(light_pdf, pdf) / light_pdf;
+                f
+            };
+            let Some(f) = f else {
+                continue;
+            };
+            for c in 0..C {
+                lit[c][l] = beta[c][l] * f[c] * radiance[c][l] * weight;
+            }
+            bits |= 1 << l;
+        }
+        bits
+    }
+
+    /// BSDF sampling of the lanes `lanes` on general surfaces (`shape`, normal `n`, reached
+    /// along `d`), each lane from a stream of its own sample and depth: their rays' directions,
+    /// densities, deltas and indices of refraction into `p`, their weights into `weight`; a lane
+    /// whose BSDF samples nothing ends.
+    #[inline(never)]
+    fn general_samples<const C: usize>(
+        &self,
+        lanes: u32,
+        shape: &U,
+        [n, d]: [[F; 3]; 2],
+        p: &mut Paths<C>,
+        weight: &mut [F; C],
+    ) {
+        let mut left = lanes;
+        while left != 0 {
+            let l = left.trailing_zeros() as usize;
+            left &= left - 1;
+            let mut rng = Sampler::new(p.key[l] as u64, p.depth[l] as u64, GENERAL_STREAM);
+            let Some(s) = self.bsdfs[shape[l] as usize].sample(lane(&n, l), -lane(&d, l), &mut rng)
+            else {
+                p.alive &= !(1 << l);
+                continue;
+            };
+            for a in 0..3 {
+                p.ray.d[a][l] = s.wo[a];
+            }
+            for c in 0..C {
+                weight[c][l] = s.weight[c];
+            }
+            p.bsdf_pdf[l] = s.pdf;
+            p.delta = p.delta & !(1 << l) | (s.delta as u32) << l;
+            p.eta[l] *= s.eta;
+        }
     }
 
     /// `angulararea` lights' falloff on the light samples `lit` of the lanes in `lights`, which

@@ -77,11 +77,12 @@ def test_runs_of_turned_down_samples_change_no_bits(capture_type):
     # With hidden-geometry sampling off most samples are turned down by their scan point's cone
     # at their first random numbers. Without variance the render loop passes over runs of them;
     # with it, each sample is finished alone (its values are kept). 600 samples: past a block of
-    # 256, where a run stops. The Z in roughplastic keeps both renders in the scalar tracer, which
-    # this is about (a diffuse Z would take the lockstep lanes without variance: other numbers).
+    # 256, where a run stops. A hidden sphere (no triangles) keeps both renders in the scalar
+    # tracer, which this is about (the Z would take the lockstep lanes without variance: other
+    # numbers).
     d = nlos_rs.scenes.z_nlos_1corner(width=6, height=5, spp=600, capture_type=capture_type)
     d["integrator"]["nlos_hidden_geometry_sampling"] = False
-    d["z"]["bsdf"] = {"type": "roughplastic"}
+    d["z"] = {"type": "sphere", "center": [0.0, 0.0, 1.0], "radius": 0.4, "bsdf": {"type": "roughplastic"}}
     scene = nlos_rs.load_dict(d)
     runs = nlos_rs.render(scene, seed=4, threads=2, progress=False)
     alone = nlos_rs.render(scene, seed=4, threads=1, progress=False, return_variance=True)
