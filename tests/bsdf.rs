@@ -340,3 +340,61 @@ fn blendbsdf_samples_its_mixture_pdf_and_mask_lets_the_rest_through() {
     assert!((through - 0.75).abs() < 0.006, "{through}");
     check_bsdf("mask", &mask, n, wi);
 }
+
+/// `eval_pdf` (value and density found together: the lanes' light samples on general BSDFs)
+/// gives `eval`'s and `pdf`'s bits for every kind of BSDF, on random normals and directions on
+/// either side.
+#[test]
+fn eval_pdf_gives_the_bits_of_eval_and_pdf() {
+    use nlos_rs::bsdf::Blend;
+    use nlos_rs::bsdf::microfacet::Distribution::{Beckmann, Ggx};
+    use nlos_rs::props::{Colour, Props, Value};
+    let read = |plugin: &str, keys: &[(&str, Value)]| {
+        let mut p = Props::new(plugin, None);
+        for (k, v) in keys {
+            p.insert(*k, v.clone()).unwrap();
+        }
+        Bsdf::<Colour>::from_props(&p).unwrap().resolve(false)
+    };
+    let bsdfs = [
+        diffuse(0.7),
+        twosided(),
+        rough(Beckmann, 0.05),
+        rough(Ggx, 0.4),
+        read("roughplastic", &[("alpha", Value::Float(0.2))]),
+        read(
+            "plastic",
+            &[("diffuse_reflectance", Value::Rgb([0.6, 0.3, 0.1]))],
+        ),
+        read("conductor", &[]),
+        read("dielectric", &[]),
+        Bsdf::Blend(Blend {
+            weight: 0.3,
+            first: Some(Box::new(diffuse(0.8))),
+            second: Box::new(rough(Ggx, 0.2)),
+        }),
+        Bsdf::Blend(Blend {
+            weight: 0.6,
+            first: None,
+            second: Box::new(read("roughplastic", &[("alpha", Value::Float(0.5))])),
+        }),
+    ];
+    let bits = |f: Option<Spectrum>| f.map(|f| f.to_array().map(f32::to_bits));
+    let mut rng = Sampler::new(9, 9, 9);
+    let mut unit = || {
+        let v = Vec3A::new(rng.next_1d(), rng.next_1d(), rng.next_1d()) * 2.0 - Vec3A::ONE;
+        v.normalize()
+    };
+    let mut some = 0;
+    for bsdf in &bsdfs {
+        for _ in 0..20_000 {
+            let (n, wi, wo) = (unit(), unit(), unit());
+            let (f, pdf) = bsdf.eval_pdf(n, wi, wo);
+            assert_eq!(bits(f), bits(bsdf.eval(n, wi, wo)), "{bsdf:?}");
+            assert_eq!(pdf.to_bits(), bsdf.pdf(n, wi, wo).to_bits(), "{bsdf:?}");
+            some += f.is_some() as usize;
+        }
+    }
+    // (Most pairs lie on one side of some BSDF: many values are found, not only `None`s.)
+    assert!(some > 40_000, "{some}");
+}

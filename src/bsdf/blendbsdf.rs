@@ -106,6 +106,23 @@ impl Blend<Spectrum> {
             .sum()
     }
 
+    /// [`Blend::eval`] and [`Blend::pdf`] at once (each component's at once), with their bits.
+    #[inline]
+    pub fn eval_pdf(&self, ns: Vec3A, wi: Vec3A, wo: Vec3A) -> (Option<Spectrum>, f32) {
+        let (mut sum, mut pdf): (Option<Spectrum>, f32) = (None, 0.0);
+        for (w, b) in self.parts() {
+            let Some(b) = b else {
+                continue;
+            };
+            let (f, p) = b.eval_pdf(ns, wi, wo);
+            if let Some(f) = f {
+                sum = Some(sum.unwrap_or(Spectrum::ZERO) + f * w);
+            }
+            pdf += w * p;
+        }
+        (sum, pdf)
+    }
+
     /// Pick a component with its weight and sample it.
     #[inline]
     pub fn sample(&self, ns: Vec3A, wi: Vec3A, rng: &mut Sampler) -> Option<BsdfSample> {
@@ -131,8 +148,8 @@ impl Blend<Spectrum> {
                 ..s
             });
         }
-        let pdf = self.pdf(ns, wi, s.wo);
-        let value = self.eval(ns, wi, s.wo)?;
+        let (value, pdf) = self.eval_pdf(ns, wi, s.wo);
+        let value = value?;
         (pdf > 0.0).then(|| BsdfSample {
             weight: value / pdf,
             pdf,

@@ -359,14 +359,27 @@ impl Bsdf<Spectrum> {
         }
     }
 
-    /// [`Self::eval`] and [`Self::pdf`] at once (a microfacet BSDF finds its half vector and
-    /// D there once for both).
-    #[inline]
+    /// [`Self::eval`] and [`Self::pdf`] at once, with the same bits (what both need is found
+    /// once: a microfacet BSDF's half vector and D there, a coating's Fresnel reflectance).
+    #[inline(always)]
     pub fn eval_pdf(&self, ns: Vec3A, wi: Vec3A, wo: Vec3A) -> (Option<Spectrum>, f32) {
+        match self.diffuse_side(ns, wi) {
+            Some((d, n)) => (d.eval(n, wi, wo), d.pdf(n, wo)),
+            None => self.eval_pdf_other(ns, wi, wo),
+        }
+    }
+
+    /// [`Self::eval_pdf`] for the BSDFs not answered inline.
+    #[inline(never)]
+    fn eval_pdf_other(&self, ns: Vec3A, wi: Vec3A, wo: Vec3A) -> (Option<Spectrum>, f32) {
         match self {
+            Bsdf::Diffuse(d) => (d.eval(ns, wi, wo), d.pdf(ns, wo)),
+            Bsdf::TwoSided(t) => t.eval_pdf(ns, wi, wo),
+            Bsdf::Conductor(_) | Bsdf::Dielectric(_) | Bsdf::ThinDielectric(_) => (None, 0.0),
             Bsdf::RoughConductor(c) => c.eval_pdf_world(ns, wi, wo),
+            Bsdf::Plastic(p) => p.eval_pdf(ns, wi, wo),
             Bsdf::RoughPlastic(p) => p.eval_pdf_world(ns, wi, wo),
-            _ => (self.eval(ns, wi, wo), self.pdf(ns, wi, wo)),
+            Bsdf::Blend(b) => b.eval_pdf(ns, wi, wo),
         }
     }
 

@@ -109,6 +109,19 @@ impl Plastic<Spectrum> {
         })
     }
 
+    /// [`Plastic::eval`] and [`Plastic::pdf`] at once (the coating's Fresnel reflectance found
+    /// once), with their bits.
+    #[inline]
+    pub fn eval_pdf(&self, ns: Vec3A, wi: Vec3A, wo: Vec3A) -> (Option<Spectrum>, f32) {
+        let (ci, co) = (ns.dot(wi), ns.dot(wo));
+        if ci <= 0.0 || co <= 0.0 {
+            return (None, 0.0);
+        }
+        let f_i = fresnel::dielectric(ci, self.eta).0;
+        let pdf = (1.0 - self.prob_specular(f_i)) * co * FRAC_1_PI;
+        (Some(self.diffuse(f_i, co)), pdf)
+    }
+
     /// Density with which [`Plastic::sample`] picks `wo` from the base.
     #[inline]
     pub fn pdf(&self, ns: Vec3A, wi: Vec3A, wo: Vec3A) -> f32 {

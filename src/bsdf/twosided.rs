@@ -97,4 +97,11 @@ impl TwoSided<Spectrum> {
         let (b, n) = self.side(ns, wi);
         b.pdf(n, wi, wo)
     }
+
+    /// [`TwoSided::eval`] and [`TwoSided::pdf`] at once.
+    #[inline]
+    pub fn eval_pdf(&self, ns: Vec3A, wi: Vec3A, wo: Vec3A) -> (Option<Spectrum>, f32) {
+        let (b, n) = self.side(ns, wi);
+        b.eval_pdf(n, wi, wo)
+    }
 }
