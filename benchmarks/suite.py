@@ -26,7 +26,9 @@ the relay wall, whose rays mostly miss the hidden object (in the room, walls mee
 three of tal's own examples (tal_example): the bunny, confocal and exhaustive, and the plane,
 exhaustive, at 750 bins; and two other hidden objects, confocal: a disk (an analytic primitive,
 not triangles) and the Z in Mitsuba's smooth `plastic` (a delta coating over a diffuse base, so
-no light subpath is shared among scan points).
+no light subpath is shared among scan points); rough BSDFs: the Cornell box with a rough
+metal and a rough plastic box (line of sight) and the Z in rough plastic (confocal,
+hidden-geometry sampling off).
 mitransient's time is its render call with dr.eval + dr.sync_thread.
 """
 
@@ -212,6 +214,10 @@ def workloads(quick: bool):
         d["z"]["bsdf"] = {"type": "plastic", "diffuse_reflectance": {"type": "rgb", "value": [0.5, 0.5, 0.5]}}
         return d
 
+    def rough_z(d):
+        d["z"]["bsdf"] = {"type": "roughplastic", "alpha": 0.2}
+        return d
+
     def glass(d):
         d["z"]["bsdf"] = {"type": "dielectric"}
         return d
@@ -292,6 +298,15 @@ def workloads(quick: bool):
             "smallbox": '<bsdf type="conductor"/>',
             "largebox": '<bsdf type="conductor"><string name="material" value="Au"/></bsdf>'}),
             max(1, 256 // div), {"res": 64}), "mono"),
+        # Rough BSDFs (each lane evaluates and samples its own): the Cornell box with a rough
+        # metal small box and a rough plastic large box, and the Z in rough plastic, confocal,
+        # hidden-geometry sampling off.
+        "cbox_rough": (lambda: (cbox_with(scenes.cache_dir() / "bench_cbox_rough.xml", bsdfs={
+            "smallbox": '<bsdf type="roughconductor"><float name="alpha" value="0.2"/></bsdf>',
+            "largebox": '<bsdf type="roughplastic"><float name="alpha" value="0.1"/></bsdf>'}),
+            max(1, 256 // div), {"res": 64}), "mono"),
+        "z_roughplastic_confocal_bsdf": (lambda: bsdf_sampling(rough_z(z(4096, width=64, height=64,
+                                                                         capture_type="confocal"))), "mono"),
         "tal_confocal_file": (lambda: (str(data / "tal021" / "confocal.xml"), max(1, (1 << 19) // div)), "mono"),
         # Hidden-geometry sampling off, the default of mitransient's plugin and of tal's generator.
         "z_confocal_bsdf": (lambda: bsdf_sampling(z(4096, width=64, height=64, capture_type="confocal")), "mono"),
