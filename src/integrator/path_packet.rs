@@ -1,22 +1,22 @@
 //! Paths traced eight at a time, in lockstep lanes, for the scenes they are most run on — a few
 //! dozen flat triangles (and meshes, spheres and disks beside them: [`Split`]), most surfaces
 //! Lambertian (`diffuse`, or a `twosided` pair), smooth glass (`dielectric`) or a smooth mirror
-//! (`conductor`), the others evaluated and sampled lane by lane by their own BSDFs (rough
-//! metals and plastics, blends: [`Surface::general`]): the line-of-sight path tracer of [`super::path`] lit by area lights (a Cornell
-//! box), and the NLOS tracer of [`super::nlos`] where a camera or a relay-wall scan point gives
-//! each path's first vertex and laser sampling connects every vertex to the laser spot (a single
-//! capture's, or a confocal pixel's own), hidden-geometry sampling off (mitransient's camera
-//! files; tal's scenes as its generator writes them, behind two corners above all). Each lane is
-//! one sample of the same pixel; the lanes advance a bounce at a time together, and a lane whose
-//! path has ended takes the pixel's next sample at once, so the lanes stay full until the pixel's
-//! last samples. The rays of the lanes are traced
-//! together, eight to a vector ([`crate::geometry::ray_packet`]), and the steps between them are
-//! branch-free arithmetic on eight lanes ([`crate::simd::F8`], AVX2 picked at run time): light
-//! sampling (a light part, or the laser spot as a part of one point), cosine-weighted BSDF sampling,
-//! the glass's Fresnel choice and the mirror's reflection, multiple importance sampling and
-//! Russian roulette, and the camera rays of the lanes that begin a sample. Only the film's splats and the gathers of what a lane hit
-//! (its normal, albedo, plane and emitter) and of the light part it chose (where the lights are
-//! more than one) are made lane by lane.
+//! (`conductor`), the others evaluated and sampled lane by lane by their own BSDFs (rough metals
+//! and plastics, blends: [`Surface::general`]): the line-of-sight path tracer of [`super::path`]
+//! lit by area lights (a Cornell box), and the NLOS tracer of [`super::nlos`] where a camera or a
+//! relay-wall scan point gives each path's first vertex and laser sampling connects every vertex to
+//! the laser spot (a single capture's, or a confocal pixel's own), hidden-geometry sampling off
+//! (mitransient's camera files; tal's scenes as its generator writes them, behind two corners above
+//! all). Each lane is one sample of the same pixel; the lanes advance a bounce at a time together,
+//! and a lane whose path has ended takes the pixel's next sample at once, so the lanes stay full
+//! until the pixel's last samples. The rays of the lanes are traced together, eight to a vector
+//! ([`crate::geometry::ray_packet`]), and the steps between them are branch-free arithmetic on
+//! eight lanes ([`crate::simd::F8`], AVX2 picked at run time): light sampling (a light part, or the
+//! laser spot as a part of one point), cosine-weighted BSDF sampling, the glass's Fresnel choice
+//! and the mirror's reflection, multiple importance sampling and Russian roulette, and the camera
+//! rays of the lanes that begin a sample. Only the film's splats, the general BSDFs and the gathers
+//! of what a lane hit (its normal, albedo, plane and emitter) and of the light part it chose (where
+//! the lights are more than one) are made lane by lane.
 //!
 //! The estimators are [`super::path`]'s (mitransient's `transient_path`: next-event estimation and
 //! BSDF sampling under the power heuristic, emission splatted at the optical path length) and
@@ -428,7 +428,8 @@ type LaneSurfaces = (
 /// The lockstep form of `scene`'s primitives, if they are at most
 /// [`crate::geometry::ray_packet::MAX_TRIANGLES`] triangles or, with `split`, at most
 /// [`MAX_SPLIT_PRIMITIVES`] triangles, spheres and disks (lights on triangles only), and its every
-/// emitting surface Lambertian (`diffuse`, or a `twosided` pair of them); `shape_emitter`: per shape, the index of its area light or `u32::MAX`.
+/// emitting surface Lambertian (`diffuse`, or a `twosided` pair of them); `shape_emitter`: per
+/// shape, the index of its area light or `u32::MAX`.
 fn lane_surfaces(
     scene: &Scene,
     shape_emitter: &[u32],
