@@ -438,7 +438,8 @@ impl From<f32> for F8 {
 }
 
 /// What arithmetic written once for an `f32` or for lanes of them ([`F8`]) needs: the four
-/// operations, constants, and the square root, each rounded as the `f32` operation is.
+/// operations, constants, the square root, comparisons and selection, each rounded as the `f32`
+/// operation is, so that both forms give the same bits.
 pub trait Real:
     Copy
     + From<f32>
@@ -448,13 +449,37 @@ pub trait Real:
     + std::ops::Div<Output = Self>
     + std::ops::Neg<Output = Self>
 {
+    /// Which lanes a comparison holds in (a `bool` for an `f32`).
+    type Mask: Copy
+        + std::ops::BitAnd<Output = Self::Mask>
+        + std::ops::BitOr<Output = Self::Mask>
+        + std::ops::Not<Output = Self::Mask>;
     /// The square root.
     fn sqrt(self) -> Self;
     /// 1 with the sign of `self` (−1 for −0; not NaN).
     fn signum(self) -> Self;
+    /// The absolute value.
+    fn abs(self) -> Self;
+    /// The greater of `self` and `b` (`b` where `self` is NaN; used against constants only).
+    fn max(self, b: Self) -> Self;
+    /// Where `self` < `b`.
+    fn lt(self, b: Self) -> Self::Mask;
+    /// Where `self` ≤ `b`.
+    fn le(self, b: Self) -> Self::Mask;
+    /// Where `self` > `b`.
+    fn gt(self, b: Self) -> Self::Mask;
+    /// Where `self` ≥ `b`.
+    fn ge(self, b: Self) -> Self::Mask;
+    /// Where `self` = `b`.
+    fn eq(self, b: Self) -> Self::Mask;
+    /// `a` where `m` holds, else `b` (both already computed).
+    fn select(m: Self::Mask, a: Self, b: Self) -> Self;
+    /// `f` of each lane: a scalar function such as `exp`, called lane by lane (its bits).
+    fn each(self, f: impl Fn(f32) -> f32) -> Self;
 }
 
 impl Real for f32 {
+    type Mask = bool;
     #[inline(always)]
     fn sqrt(self) -> Self {
         f32::sqrt(self)
@@ -463,9 +488,46 @@ impl Real for f32 {
     fn signum(self) -> Self {
         f32::signum(self)
     }
+    #[inline(always)]
+    fn abs(self) -> Self {
+        f32::abs(self)
+    }
+    #[inline(always)]
+    fn max(self, b: Self) -> Self {
+        f32::max(self, b)
+    }
+    #[inline(always)]
+    fn lt(self, b: Self) -> bool {
+        self < b
+    }
+    #[inline(always)]
+    fn le(self, b: Self) -> bool {
+        self <= b
+    }
+    #[inline(always)]
+    fn gt(self, b: Self) -> bool {
+        self > b
+    }
+    #[inline(always)]
+    fn ge(self, b: Self) -> bool {
+        self >= b
+    }
+    #[inline(always)]
+    fn eq(self, b: Self) -> bool {
+        self == b
+    }
+    #[inline(always)]
+    fn select(m: bool, a: Self, b: Self) -> Self {
+        if m { a } else { b }
+    }
+    #[inline(always)]
+    fn each(self, f: impl Fn(f32) -> f32) -> Self {
+        f(self)
+    }
 }
 
 impl Real for F8 {
+    type Mask = M8;
     #[inline(always)]
     fn sqrt(self) -> Self {
         F8::sqrt(self)
@@ -473,5 +535,41 @@ impl Real for F8 {
     #[inline(always)]
     fn signum(self) -> Self {
         F8::signum(self)
+    }
+    #[inline(always)]
+    fn abs(self) -> Self {
+        F8::abs(self)
+    }
+    #[inline(always)]
+    fn max(self, b: Self) -> Self {
+        F8::max(self, b)
+    }
+    #[inline(always)]
+    fn lt(self, b: Self) -> M8 {
+        F8::lt(self, b)
+    }
+    #[inline(always)]
+    fn le(self, b: Self) -> M8 {
+        F8::le(self, b)
+    }
+    #[inline(always)]
+    fn gt(self, b: Self) -> M8 {
+        F8::gt(self, b)
+    }
+    #[inline(always)]
+    fn ge(self, b: Self) -> M8 {
+        F8::ge(self, b)
+    }
+    #[inline(always)]
+    fn eq(self, b: Self) -> M8 {
+        F8::eq(self, b)
+    }
+    #[inline(always)]
+    fn select(m: M8, a: Self, b: Self) -> Self {
+        F8::select(m, a, b)
+    }
+    #[inline(always)]
+    fn each(self, f: impl Fn(f32) -> f32) -> Self {
+        F8::load(&self.store().map(f))
     }
 }

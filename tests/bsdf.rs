@@ -3,9 +3,10 @@
 //! sampled weight equal to eval/pdf.
 
 use glam::{Vec2, Vec3A};
-use nlos_rs::bsdf::{Bsdf, Diffuse, TwoSided};
+use nlos_rs::bsdf::{Bsdf, Diffuse, Rough, RoughLanes, TwoSided};
 use nlos_rs::math::{Frame, Spectrum};
 use nlos_rs::sampling::Sampler;
+use nlos_rs::simd::{F8, LANES};
 use std::f64::consts::PI;
 
 mod common;
@@ -397,4 +398,134 @@ fn eval_pdf_gives_the_bits_of_eval_and_pdf() {
     }
     // (Most pairs lie on one side of some BSDF: many values are found, not only `None`s.)
     assert!(some > 40_000, "{some}");
+}
+
+/// Three coordinates of eight lanes.
+type Dirs = [[f32; LANES]; 3];
+
+/// Eight lanes' rough BSDFs `rough` gathered ([`RoughLanes`]): each lane's value, density and
+/// defined flag at the local directions `wi`, `wo`, and its sampled direction for `wi` from the
+/// numbers `u`.
+#[cfg_attr(target_arch = "x86_64", target_feature(enable = "avx2,fma"))]
+unsafe fn rough_lanes(
+    rough: [Option<&Rough>; LANES],
+    wi: Dirs,
+    wo: Dirs,
+    u: [[f32; LANES]; 2],
+) -> (Dirs, [f32; LANES], u32, Dirs) {
+    let lanes = RoughLanes::<3>::gather(rough, (1 << LANES) - 1);
+    let (wi, wo) = (wi.map(|a| F8::load(&a)), wo.map(|a| F8::load(&a)));
+    let (f, pdf, some) = lanes.eval_pdf(wi, wo);
+    let s = lanes.sample(wi, F8::load(&u[0]), F8::load(&u[1]));
+    (f.map(F8::store), pdf.store(), some.bits(), s.map(F8::store))
+}
+
+/// The rough BSDFs the lanes take: conductors and plastics (linear and not) of either
+/// distribution, rgb.
+fn rough_bsdfs() -> Vec<Bsdf<Spectrum>> {
+    use nlos_rs::bsdf::microfacet::Distribution::{Beckmann, Ggx};
+    use nlos_rs::props::{Colour, Props, Value};
+    let read = |keys: &[(&str, Value)]| {
+        let mut p = Props::new("roughplastic", None);
+        for (k, v) in keys {
+            p.insert(*k, v.clone()).unwrap();
+        }
+        Bsdf::<Colour>::from_props(&p).unwrap().resolve(false)
+    };
+    vec![
+        rough(Beckmann, 0.05),
+        rough(Ggx, 0.4),
+        read(&[("alpha", Value::Float(0.2))]),
+        read(&[
+            ("alpha", Value::Float(0.5)),
+            ("distribution", Value::Str("ggx".into())),
+            ("diffuse_reflectance", Value::Rgb([0.6, 0.3, 0.1])),
+        ]),
+        read(&[
+            ("alpha", Value::Float(0.1)),
+            ("nonlinear", Value::Bool(true)),
+            ("int_ior", Value::Float(1.9)),
+        ]),
+    ]
+}
+
+/// Lanes of rough conductors and plastics, mixed, give each lane the bits of its BSDF's
+/// `eval_pdf` (value, or none, and density), for random normals and directions on either side.
+#[test]
+fn rough_lanes_give_the_bits_of_eval_pdf() {
+    if !nlos_rs::simd::available() {
+        return; // no AVX2 on this x86-64 CPU: the lanes never run here
+    }
+    let bsdfs = rough_bsdfs();
+    let rough: Vec<Rough> = bsdfs.iter().map(|b| Rough::of(b).expect("rough")).collect();
+    let mut rng = Sampler::new(4, 4, 4);
+    let mut unit = || {
+        let v = Vec3A::new(rng.next_1d(), rng.next_1d(), rng.next_1d()) * 2.0 - Vec3A::ONE;
+        v.normalize()
+    };
+    let mut some = 0;
+    for round in 0..20_000 {
+        let pick: [usize; LANES] = std::array::from_fn(|l| (round + 3 * l) % bsdfs.len());
+        let (mut wi, mut wo) = ([[0.0; LANES]; 3], [[0.0; LANES]; 3]);
+        let mut world = [(Vec3A::ZERO, Vec3A::ZERO, Vec3A::ZERO); LANES];
+        for l in 0..LANES {
+            let (n, i, o) = (unit(), unit(), unit());
+            let f = Frame::new(n);
+            let (li, lo) = (f.to_local(i), f.to_local(o));
+            for a in 0..3 {
+                (wi[a][l], wo[a][l]) = (li[a], lo[a]);
+            }
+            world[l] = (n, i, o);
+        }
+        // SAFETY: the CPU runs AVX2 and FMA (checked above).
+        let (f, pdf, defined, _) =
+            unsafe { rough_lanes(pick.map(|k| Some(&rough[k])), wi, wo, [[0.5; LANES]; 2]) };
+        for l in 0..LANES {
+            let (n, i, o) = world[l];
+            let (f_s, pdf_s) = bsdfs[pick[l]].eval_pdf(n, i, o);
+            let lane_f =
+                (defined >> l & 1 != 0).then(|| [f[0][l], f[1][l], f[2][l]].map(f32::to_bits));
+            assert_eq!(
+                lane_f,
+                f_s.map(|f| f.to_array().map(f32::to_bits)),
+                "{:?}",
+                bsdfs[pick[l]]
+            );
+            assert_eq!(pdf[l].to_bits(), pdf_s.to_bits(), "{:?}", bsdfs[pick[l]]);
+            some += f_s.is_some() as usize;
+        }
+    }
+    assert!(some > 20_000, "{some}");
+}
+
+/// The lanes' sampling of rough conductors and plastics (a microfacet normal from the concentric
+/// disk, a plastic's lobe by a rescaled number) against the BSDF's density, χ² over the sphere,
+/// at normal and oblique incidence.
+#[test]
+fn rough_lanes_sample_their_pdf() {
+    if !nlos_rs::simd::available() {
+        return;
+    }
+    let n = Vec3A::new(0.2, 0.3, 0.9).normalize();
+    let frame = Frame::new(n);
+    for bsdf in rough_bsdfs() {
+        let rough = Rough::of(&bsdf).expect("rough");
+        for wi in [n, Vec3A::new(0.7, -0.2, 0.4).normalize()] {
+            let li = frame.to_local(wi);
+            let local = [[li.x; LANES], [li.y; LANES], [li.z; LANES]];
+            check(
+                &format!("lanes {bsdf:?}"),
+                |rng| {
+                    let u = [[rng.next_1d(); LANES], [rng.next_1d(); LANES]];
+                    // SAFETY: as above.
+                    let (_, _, _, wo) =
+                        unsafe { rough_lanes([Some(&rough); LANES], local, local, u) };
+                    let wo = frame.to_world(Vec3A::new(wo[0][0], wo[1][0], wo[2][0]));
+                    // (A microfacet reflection below the surface has no value: not binned.)
+                    (wo.dot(n) > 0.0).then(|| to_cell(n, wo))
+                },
+                |a, b| bsdf.pdf(n, wi, from_cell(n, a, b)) as f64 * 4.0 * PI,
+            );
+        }
+    }
 }

@@ -3,6 +3,7 @@
 //! Mitsuba's conventions (Beckmann's G1 by its rational fit, < 0.35 % error), and sampling of m
 //! proportional to D(m)·cos θ_m. Directions are in the local frame (z = shading normal).
 
+use crate::simd::Real;
 use glam::{Vec2, Vec3A};
 use std::f32::consts::PI;
 
@@ -24,51 +25,76 @@ pub struct Microfacet {
     pub alpha: f32,
 }
 
-impl Microfacet {
-    /// D(m): microfacet normals per unit solid angle and projected area.
-    pub fn d(&self, m: Vec3A) -> f32 {
-        if m.z <= 0.0 {
-            return 0.0;
+/// D(m) for a distribution `kind` of roughness `alpha`: microfacet normals per unit solid angle
+/// and projected area (Walter et al. 2007, eqs. 25 and 33), zero below the surface and where
+/// D·cos θ_m ≤ 1e-20; for an `f32` or lanes of them ([`crate::simd::F8`], the same bits).
+#[inline(always)]
+pub fn distribution<T: Real>(kind: Distribution, alpha: T, m: [T; 3]) -> T {
+    let k = T::from;
+    let a2 = alpha * alpha;
+    let c2 = m[2] * m[2];
+    let xy = m[0] * m[0] + m[1] * m[1];
+    let d = match kind {
+        // (Below e^-87, D·cos θ_m is under the cut below for every α read, 1e-4 to 1e3: exp,
+        // whose underflow is slow, is taken at −87 there and the value dropped.)
+        Distribution::Beckmann => {
+            let e = -xy / (a2 * c2);
+            let d = e.max(k(-87.0)).each(f32::exp) / (k(PI) * a2 * c2 * c2);
+            T::select(e.lt(k(-87.0)), k(0.0), d)
         }
-        let a2 = self.alpha * self.alpha;
-        let c2 = m.z * m.z;
-        let xy = m.x * m.x + m.y * m.y;
-        let d = match self.kind {
-            // (Below e^-87, D·cos θ_m is under the cut below for every α read, 1e-4 to 1e3:
-            // no call to exp, whose underflow is slow.)
-            Distribution::Beckmann => match -xy / (a2 * c2) {
-                e if e < -87.0 => 0.0,
-                e => e.exp() / (PI * a2 * c2 * c2),
-            },
-            Distribution::Ggx => {
-                let t = xy / a2 + c2;
-                1.0 / (PI * a2 * t * t)
-            }
-        };
-        if d * m.z > 1e-20 { d } else { 0.0 }
+        Distribution::Ggx => {
+            let t = xy / a2 + c2;
+            k(1.0) / (k(PI) * a2 * t * t)
+        }
+    };
+    T::select(m[2].gt(k(0.0)) & (d * m[2]).gt(k(1e-20)), d, k(0.0))
+}
+
+/// Smith's masking G1 of direction `v` by microfacets of normal `m` (Walter et al. 2007, eqs. 27
+/// and 34; Beckmann's by its rational fit), zero where `v` and `m` face opposite sides; for an
+/// `f32` or lanes of them.
+#[inline(always)]
+pub fn masking<T: Real>(kind: Distribution, alpha: T, v: [T; 3], m: [T; 3]) -> T {
+    let k = T::from;
+    let vm = v[0] * m[0] + v[1] * m[1] + v[2] * m[2];
+    let xy_a2 = alpha * alpha * (v[0] * v[0] + v[1] * v[1]);
+    let tan2 = xy_a2 / (v[2] * v[2]);
+    let g = match kind {
+        Distribution::Beckmann => {
+            let a = k(1.0) / tan2.sqrt();
+            let fit =
+                (k(3.535) * a + k(2.181) * a * a) / (k(1.0) + k(2.276) * a + k(2.577) * a * a);
+            T::select(a.ge(k(1.6)), k(1.0), fit)
+        }
+        Distribution::Ggx => k(2.0) / (k(1.0) + (k(1.0) + tan2).sqrt()),
+    };
+    let g = T::select(xy_a2.eq(k(0.0)), k(1.0), g);
+    T::select((vm * v[2]).le(k(0.0)), k(0.0), g)
+}
+
+/// The polar angle of a microfacet normal drawn ∝ D(m)·cos θ_m from the uniform number `u`: its
+/// (cos θ, sin θ) (the azimuth is uniform and drawn apart); for an `f32` or lanes of them.
+#[inline(always)]
+pub fn polar<T: Real>(kind: Distribution, alpha: T, u: T) -> (T, T) {
+    let k = T::from;
+    let a2 = alpha * alpha;
+    let tan2 = match kind {
+        Distribution::Beckmann => -a2 * (k(1.0) - u).each(f32::ln),
+        Distribution::Ggx => a2 * u / (k(1.0) - u),
+    };
+    let cos = k(1.0) / (k(1.0) + tan2).sqrt();
+    (cos, (k(1.0) - cos * cos).max(k(0.0)).sqrt())
+}
+
+impl Microfacet {
+    /// D(m): microfacet normals per unit solid angle and projected area ([`distribution`]).
+    pub fn d(&self, m: Vec3A) -> f32 {
+        distribution(self.kind, self.alpha, m.to_array())
     }
 
-    /// Smith's masking of direction `v` by microfacets of normal `m`.
+    /// Smith's masking of direction `v` by microfacets of normal `m` ([`masking`]).
     pub fn g1(&self, v: Vec3A, m: Vec3A) -> f32 {
-        if v.dot(m) * v.z <= 0.0 {
-            return 0.0;
-        }
-        let xy_a2 = self.alpha * self.alpha * (v.x * v.x + v.y * v.y);
-        if xy_a2 == 0.0 {
-            return 1.0;
-        }
-        let tan2 = xy_a2 / (v.z * v.z);
-        match self.kind {
-            Distribution::Beckmann => {
-                let a = 1.0 / tan2.sqrt();
-                if a >= 1.6 {
-                    1.0
-                } else {
-                    (3.535 * a + 2.181 * a * a) / (1.0 + 2.276 * a + 2.577 * a * a)
-                }
-            }
-            Distribution::Ggx => 2.0 / (1.0 + (1.0 + tan2).sqrt()),
-        }
+        masking(self.kind, self.alpha, v.to_array(), m.to_array())
     }
 
     /// G(wi, wo, m) = G1(wi, m)·G1(wo, m).
@@ -78,13 +104,7 @@ impl Microfacet {
 
     /// A normal m with density D(m)·cos θ_m (per solid angle of m).
     pub fn sample(&self, u: Vec2) -> Vec3A {
-        let a2 = self.alpha * self.alpha;
-        let tan2 = match self.kind {
-            Distribution::Beckmann => -a2 * (1.0 - u.y).ln(),
-            Distribution::Ggx => a2 * u.y / (1.0 - u.y),
-        };
-        let cos = 1.0 / (1.0 + tan2).sqrt();
-        let sin = (1.0 - cos * cos).max(0.0).sqrt();
+        let (cos, sin) = polar(self.kind, self.alpha, u.y);
         let (s, c) = (2.0 * PI * u.x).sin_cos();
         Vec3A::new(sin * c, sin * s, cos)
     }

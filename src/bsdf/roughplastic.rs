@@ -161,20 +161,45 @@ impl RoughPlastic<Colour> {
 impl<S> RoughPlastic<S> {
     /// T(cos θ), linearly interpolated in the table.
     fn t(&self, cos: f32) -> f32 {
-        let x = cos.clamp(0.0, 1.0) * (RES - 1) as f32;
-        let i = (x as usize).min(RES - 2);
-        let a = x - i as f32;
-        self.transmittance[i] * (1.0 - a) + self.transmittance[i + 1] * a
+        transmittance_at(&self.transmittance, cos)
     }
 }
 
+/// T(cos θ) from a coating's transmittance `table` (at cos θ = k / (RES − 1)), linearly
+/// interpolated.
+#[inline]
+pub(super) fn transmittance_at(table: &[f32], cos: f32) -> f32 {
+    let x = cos.clamp(0.0, 1.0) * (RES - 1) as f32;
+    let i = (x as usize).min(RES - 2);
+    let a = x - i as f32;
+    table[i] * (1.0 - a) + table[i + 1] * a
+}
+
 impl RoughPlastic<Spectrum> {
-    fn prob_specular(&self, t_i: f32) -> f32 {
+    /// The weight of the coating's lobe in sampling, by the mean specular and diffuse
+    /// reflectances.
+    pub(super) fn specular_weight(&self) -> f32 {
         let s = self.specular_reflectance.element_sum() / 3.0;
         let d = self.diffuse_reflectance.element_sum() / 3.0;
-        let w = if s + d > 0.0 { s / (s + d) } else { 0.5 };
+        if s + d > 0.0 { s / (s + d) } else { 0.5 }
+    }
+
+    /// The probability of sampling the coating, of transmittance `t_i` into it.
+    fn prob_specular(&self, t_i: f32) -> f32 {
+        let w = self.specular_weight();
         let (ps, pd) = ((1.0 - t_i) * w, t_i * (1.0 - w));
         if ps + pd > 0.0 { ps / (ps + pd) } else { 0.0 }
+    }
+
+    /// The base's albedo over its internal reflections: ρ / (1 − R_int), or ρ / (1 − ρ R_int)
+    /// with `nonlinear`.
+    pub(super) fn base(&self) -> Spectrum {
+        let rho = self.diffuse_reflectance;
+        if self.nonlinear {
+            rho / (Spectrum::ONE - rho * self.internal_reflectance)
+        } else {
+            rho / (1.0 - self.internal_reflectance)
+        }
     }
 }
 
@@ -187,14 +212,8 @@ impl LocalBsdf for RoughPlastic<Spectrum> {
         let f = fresnel::dielectric(wi.dot(h), self.eta).0;
         let spec =
             self.specular_reflectance * (f * d * self.microfacet.g(wi, wo, h) / (4.0 * wi.z));
-        let rho = self.diffuse_reflectance;
-        let base = if self.nonlinear {
-            rho / (Spectrum::ONE - rho * self.internal_reflectance)
-        } else {
-            rho / (1.0 - self.internal_reflectance)
-        };
         let diffuse =
-            base * (FRAC_1_PI / (self.eta * self.eta) * wo.z * self.t(wi.z) * self.t(wo.z));
+            self.base() * (FRAC_1_PI / (self.eta * self.eta) * wo.z * self.t(wi.z) * self.t(wo.z));
         Some(spec + diffuse)
     }
 

@@ -42,7 +42,7 @@
 use super::Splat;
 use super::path::mis;
 use super::scan_cone::ScanCone;
-use crate::bsdf::Bsdf;
+use crate::bsdf::{Bsdf, Rough, RoughLanes};
 use crate::capture::Capture;
 use crate::emitter::{AngularFalloff, Light};
 use crate::error::{NlosError, Result};
@@ -409,6 +409,9 @@ pub struct PathPacket<'a> {
     conductors: Vec<[[f32; 3]; 2]>,
     /// Per shape, its BSDF, where some surface is [`Surface::general`] (else empty).
     bsdfs: Vec<Bsdf<Spectrum>>,
+    /// Per shape of `bsdfs`, its lane form where it is a rough conductor or rough plastic: the
+    /// lanes on those evaluate and sample them together ([`RoughLanes`]).
+    rough: Vec<Option<Rough>>,
     mono: bool,
     /// Some surface is glass, a mirror or general (what `GLASS` compiles in: deltas, refraction
     /// and BSDFs evaluated lane by lane).
@@ -573,6 +576,7 @@ impl<'a> PathPacket<'a> {
         }
         let (geometry, surfaces, smooth, conductors, bsdfs) =
             lane_surfaces(scene, &shape_emitter, mono, true)?;
+        let rough = bsdfs.iter().map(Rough::of).collect();
         // The light parts: each light triangle, but the two of a parallelogram as one where they
         // share both normals (a light sample's cosines are taken with its part's).
         let mut corners = vec![None; scene.prims.len()];
@@ -647,6 +651,7 @@ impl<'a> PathPacket<'a> {
             smooth,
             conductors,
             bsdfs,
+            rough,
             mono,
             glass,
         })
@@ -696,6 +701,7 @@ impl<'a> PathPacket<'a> {
         let split = matches!(start, Start::Camera(_));
         let (geometry, surfaces, smooth, conductors, bsdfs) =
             lane_surfaces(scene, &vec![u32::MAX; scene.shapes.len()], mono, split)?;
+        let rough = bsdfs.iter().map(Rough::of).collect();
         let spots = spots
             .iter()
             .map(|spot| {
@@ -750,6 +756,7 @@ impl<'a> PathPacket<'a> {
             smooth,
             conductors,
             bsdfs,
+            rough,
             mono,
             glass,
         })
@@ -1027,6 +1034,8 @@ impl<'a> PathPacket<'a> {
             let r2 = dot(&w, &w);
             let r = r2.sqrt();
             w = w.map(|w| w / r);
+            // The tangent frame of each lane's normal, as `Frame::new` makes it.
+            let frame = frame_axes(n);
             // The light's cosines (one-sided: its front faces x; the density's is the geometric
             // normal's) and the BSDF's.
             let cos_l = b(0.0) - dot(&light.n, &w);
@@ -1058,16 +1067,38 @@ impl<'a> PathPacket<'a> {
                     Some(_) => lanes & light.plane.ne(F8::load(&hit.plane)).bits(),
                     None => lanes,
                 };
-                let lit_general = self.general_lights(
-                    lanes,
-                    &shape,
-                    [&n, &d, &w].map(|v| v.map(F8::store)),
-                    [r2, cos_l, light.area_pdf].map(F8::store),
-                    (light.ng.map(F8::store), light.radiance.map(F8::store)),
-                    spot.is_some(),
-                    &beta.map(F8::store),
-                    &mut lit,
-                );
+                let rough = self.rough_lanes(lanes, &shape);
+                let mut lit_general = 0;
+                if rough != 0 {
+                    let bsdfs = RoughLanes::<C>::gather(self.rough_of(&shape), rough);
+                    let wi = local(&frame, &n, [-d[0], -d[1], -d[2]]);
+                    let wo = local(&frame, &n, w);
+                    let (f, pdf, some) = bsdfs.eval_pdf(wi, wo);
+                    let weight = if spot.is_some() {
+                        cos_l / r2
+                    } else {
+                        let light_pdf = r2 * light.area_pdf / dot(&light.ng, &w).abs();
+                        mis_lanes(light_pdf, pdf) / light_pdf
+                    };
+                    let m = some & M8::from_bits(rough);
+                    for c in 0..C {
+                        let v = beta[c] * f[c] * light.radiance[c] * weight;
+                        lit[c] = F8::select(m, v, F8::load(&lit[c])).store();
+                    }
+                    lit_general |= m.bits();
+                }
+                if lanes & !rough != 0 {
+                    lit_general |= self.general_lights(
+                        lanes & !rough,
+                        &shape,
+                        [&n, &d, &w].map(|v| v.map(F8::store)),
+                        [r2, cos_l, light.area_pdf].map(F8::store),
+                        (light.ng.map(F8::store), light.radiance.map(F8::store)),
+                        spot.is_some(),
+                        &beta.map(F8::store),
+                        &mut lit,
+                    );
+                }
                 lights = M8::from_bits(lights.bits() & !general | lit_general);
             }
             if self.falloff {
@@ -1105,8 +1136,6 @@ impl<'a> PathPacket<'a> {
             let u_rr = F8::load(&p.uniforms(dim, ROULETTE));
             let (dx, dy) = square_to_disk(F8::load(&v1), F8::load(&v2));
             let dz = (b(1.0) - dx * dx - dy * dy).max(b(0.0)).sqrt();
-            // About the tangent frame of each lane's normal, as `Frame::new` makes it.
-            let frame = frame_axes(n);
             for a in 0..3 {
                 let dir = frame[0][a] * dx + frame[1][a] * dy + n[a] * dz;
                 p.ray.d[a] = dir.store();
@@ -1120,10 +1149,31 @@ impl<'a> PathPacket<'a> {
                 p.delta = glass | mirror;
             }
             if GLASS && general & p.alive != 0 {
-                let nd = [n, d].map(|v| v.map(F8::store));
-                let mut w = weight.map(F8::store);
-                self.general_samples(general & p.alive, &shape, nd, &mut p, &mut w);
-                weight = w.map(|c| F8::load(&c));
+                let rough = self.rough_lanes(general & p.alive, &shape);
+                if rough != 0 {
+                    // Each lane's direction from its own two numbers, then its value and density.
+                    let bsdfs = RoughLanes::<C>::gather(self.rough_of(&shape), rough);
+                    let wi = local(&frame, &n, [-d[0], -d[1], -d[2]]);
+                    let wo = bsdfs.sample(wi, F8::load(&v1), F8::load(&v2));
+                    let (f, pdf, some) = bsdfs.eval_pdf(wi, wo);
+                    let m = M8::from_bits(rough) & some & wi[2].gt(b(0.0)) & pdf.gt(b(0.0));
+                    p.alive &= !rough | m.bits();
+                    for a in 0..3 {
+                        let dir = frame[0][a] * wo[0] + frame[1][a] * wo[1] + n[a] * wo[2];
+                        p.ray.d[a] = F8::select(m, dir, F8::load(&p.ray.d[a])).store();
+                    }
+                    for c in 0..C {
+                        weight[c] = F8::select(m, f[c] / pdf, weight[c]);
+                    }
+                    p.bsdf_pdf = F8::select(m, pdf, F8::load(&p.bsdf_pdf)).store();
+                    p.delta &= !rough;
+                }
+                if general & p.alive & !rough != 0 {
+                    let nd = [n, d].map(|v| v.map(F8::store));
+                    let mut w = weight.map(F8::store);
+                    self.general_samples(general & p.alive & !rough, &shape, nd, &mut p, &mut w);
+                    weight = w.map(|c| F8::load(&c));
+                }
             }
             if GLASS && glass & p.alive != 0 {
                 let g = M8::from_bits(glass);
@@ -1349,6 +1399,24 @@ impl PathPacket<'_> {
                 w[c][l] = f[c] * s.albedo[0][c];
             }
         }
+    }
+
+    /// The lanes of `lanes` on rough conductors and rough plastics ([`Self::rough`]), as bits.
+    #[inline(always)]
+    fn rough_lanes(&self, lanes: u32, shape: &U) -> u32 {
+        let mut bits = 0;
+        for l in 0..L {
+            if lanes >> l & 1 != 0 && self.rough[shape[l] as usize].is_some() {
+                bits |= 1 << l;
+            }
+        }
+        bits
+    }
+
+    /// Each lane's rough BSDF, where its shape (`shape`; `u32::MAX` for none) has one.
+    #[inline(always)]
+    fn rough_of(&self, shape: &U) -> [Option<&Rough>; L] {
+        std::array::from_fn(|l| self.rough.get(shape[l] as usize).and_then(Option::as_ref))
     }
 
     /// Next-event estimates of the lanes `lanes` on general surfaces (`shape`; their normals,
@@ -1746,6 +1814,13 @@ fn dielectric_sample(n: [F8; 3], d: [F8; 3], cos_i: F8, ior: F8, u: F8) -> Diele
 #[inline(always)]
 fn dot(a: &[F8; 3], b: &[F8; 3]) -> F8 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+/// `v` in the lanes' local frames (the tangents `frame`, then the normal `n`), as `Frame::to_local`
+/// takes it.
+#[inline(always)]
+fn local(frame: &[[F8; 3]; 2], n: &[F8; 3], v: [F8; 3]) -> [F8; 3] {
+    [dot(&v, &frame[0]), dot(&v, &frame[1]), dot(&v, n)]
 }
 
 /// The power heuristic ([`mis`]) lane by lane.
