@@ -1775,25 +1775,13 @@ struct DielectricSample {
 
 /// Reflect or refract the rays `d` at glass of relative index `ior` (inside / outside) whose
 /// normal is `n`, met at the cosine `cos_i` = n · (−d) (negative from inside), with the Fresnel
-/// probability, reflecting where the number `u` ≤ F — [`crate::bsdf::Dielectric`]'s sample and
-/// [`crate::bsdf::fresnel::dielectric`]'s terms, lane by lane.
+/// probability ([`crate::bsdf::fresnel::dielectric`]'s, lane by lane), reflecting where the
+/// number `u` ≤ F — [`crate::bsdf::Dielectric`]'s sample.
 #[inline(always)]
 fn dielectric_sample(n: [F8; 3], d: [F8; 3], cos_i: F8, ior: F8, u: F8) -> DielectricSample {
     let b = F8::splat;
-    let outside = cos_i.ge(b(0.0));
-    let (eta_it, eta_ti) = (
-        F8::select(outside, ior, b(1.0) / ior),
-        F8::select(outside, b(1.0) / ior, ior),
-    );
-    let cos_t2 = b(1.0) - (b(1.0) - cos_i * cos_i) * eta_ti * eta_ti;
-    let (ci, ct) = (cos_i.abs(), cos_t2.max(b(0.0)).sqrt());
-    let a_s = (ci - eta_it * ct) / (ci + eta_it * ct);
-    let a_p = (ct - eta_it * ci) / (ct + eta_it * ci);
-    let f = b(0.5) * (a_s * a_s + a_p * a_p);
-    // No interface (η = 1) reflects nothing; a grazing ray (cos 0) is reflected whole.
-    let f = F8::select(ior.eq(b(1.0)), b(0.0), F8::select(ci.eq(b(0.0)), b(1.0), f));
+    let (f, cos_t, eta_it, eta_ti) = crate::bsdf::fresnel::dielectric(cos_i, ior);
     let reflected = u.le(f);
-    let cos_t = F8::select(outside, b(0.0) - ct, ct);
     let mut dir = [b(0.0); 3];
     for a in 0..3 {
         // wi = −d: the mirror direction 2 cos_i n − wi, and the refracted
