@@ -226,7 +226,8 @@ impl<'a, const C: usize> RoughLanes<'a, C> {
         let h = [sum[0] / length, sum[1] / length, sum[2] / length];
         let (d, g) = self.d_and_g(wi, wo, h);
         let cos_ih = dot(&wi, &h);
-        // D·h_z / (4 wo·h): the density of reflecting about h ([`microfacet::Microfacet::reflection_pdf_at`]).
+        // D·h_z / (4 wo·h): the density of reflecting about h
+        // ([`microfacet::Microfacet::reflection_pdf_at`]).
         let reflection_pdf = d * h[2].max(b(0.0)) / (b(4.0) * dot(&wo, &h));
         let mut f = [b(0.0); C];
         let mut pdf = reflection_pdf;
@@ -263,7 +264,7 @@ impl<'a, const C: usize> RoughLanes<'a, C> {
 
     /// A local direction for each lane's local `wi` (above the surface) from its numbers `u` and
     /// `v`: the mirror direction about a microfacet normal drawn ∝ D·cos θ_m, or for a plastic
-    /// with probability 1 − [`Self::prob_specular`] a cosine-weighted one.
+    /// with the probability of its base a cosine-weighted one.
     #[inline(always)]
     pub fn sample(&self, wi: [F8; 3], u: F8, v: F8) -> [F8; 3] {
         let b = F8::splat;

@@ -1,11 +1,12 @@
 //! Paths traced eight at a time, in lockstep lanes, for the scenes they are most run on — a few
 //! dozen flat triangles (and meshes, spheres and disks beside them: [`Split`]), most surfaces
 //! Lambertian (`diffuse`, or a `twosided` pair), smooth glass (`dielectric`) or a smooth mirror
-//! (`conductor`), the others evaluated and sampled lane by lane by their own BSDFs (rough metals
-//! and plastics, blends: [`Surface::general`]): the line-of-sight path tracer of [`super::path`]
-//! lit by area lights (a Cornell box), and the NLOS tracer of [`super::nlos`] where a camera or a
-//! relay-wall scan point gives each path's first vertex and laser sampling connects every vertex to
-//! the laser spot (a single capture's, or a confocal pixel's own), hidden-geometry sampling off
+//! (`conductor`), the others evaluated and sampled by their own BSDFs, eight lanes at a time for
+//! rough metals and plastics ([`RoughLanes`]) and lane by lane for the rest (smooth plastics,
+//! blends: [`Surface::general`]): the line-of-sight path tracer of [`super::path`] lit by area
+//! lights (a Cornell box), and the NLOS tracer of [`super::nlos`] where a camera or a relay-wall
+//! scan point gives each path's first vertex and laser sampling connects every vertex to the laser
+//! spot (a single capture's, or a confocal pixel's own), hidden-geometry sampling off
 //! (mitransient's camera files; tal's scenes as its generator writes them, behind two corners above
 //! all). Each lane is one sample of the same pixel; the lanes advance a bounce at a time together,
 //! and a lane whose path has ended takes the pixel's next sample at once, so the lanes stay full
@@ -14,9 +15,9 @@
 //! eight lanes ([`crate::simd::F8`], AVX2 picked at run time): light sampling (a light part, or the
 //! laser spot as a part of one point), cosine-weighted BSDF sampling, the glass's Fresnel choice
 //! and the mirror's reflection, multiple importance sampling and Russian roulette, and the camera
-//! rays of the lanes that begin a sample. Only the film's splats, the general BSDFs and the gathers
-//! of what a lane hit (its normal, albedo, plane and emitter) and of the light part it chose (where
-//! the lights are more than one) are made lane by lane.
+//! rays of the lanes that begin a sample. Only the film's splats, the general BSDFs other than the
+//! rough ones and the gathers of what a lane hit (its normal, albedo, plane and emitter) and of the
+//! light part it chose (where the lights are more than one) are made lane by lane.
 //!
 //! The estimators are [`super::path`]'s (mitransient's `transient_path`: next-event estimation and
 //! BSDF sampling under the power heuristic, emission splatted at the optical path length) and
@@ -24,7 +25,8 @@
 //! Russian-roulette and time-origin settings. What differs:
 //! - **Random numbers** are counter-based ([`crate::sampling::lane_uniform`]): the d-th number of a
 //!   sample is a hash of its key and d, so a lane's numbers do not depend on the other lanes.
-//!   A general BSDF draws its own from a stream of the lane's sample and depth.
+//!   A general BSDF other than a rough one draws its own from a stream of the lane's sample and
+//!   depth.
 //! - **Rays start on the surface** and skip the triangles of its plane, and a shadow ray those of
 //!   its light point's plane, instead of being offset off them ([`crate::geometry::ray_packet`]).
 //!   Scenes of more triangles than the packet test takes, or with spheres and disks (a mesh in a
@@ -236,8 +238,9 @@ struct Surface {
     /// which the lanes read at every hit, is 24 bytes smaller than with the index itself).
     conductor: u32,
     /// Any other BSDF (rough, plastic, blended, a mask; not emitting), instead: its shape, whose
-    /// BSDF ([`PathPacket::bsdfs`]) each lane on it evaluates and samples on its own, as the
-    /// scalar tracers do; else `u32::MAX`.
+    /// BSDF ([`PathPacket::bsdfs`]) the lanes on it evaluate and sample together where it is a
+    /// rough conductor or plastic ([`PathPacket::rough`]), else each on its own, as the scalar
+    /// tracers do; else `u32::MAX`.
     general: u32,
     /// Plane key ([`PacketScene::plane`]).
     plane: f32,
