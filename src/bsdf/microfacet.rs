@@ -35,19 +35,19 @@ pub fn distribution<T: Real>(kind: Distribution, alpha: T, m: [T; 3]) -> T {
     let c2 = m[2] * m[2];
     let xy = m[0] * m[0] + m[1] * m[1];
     let d = match kind {
-        // (Below e^-87, D·cos θ_m is under the cut below for every α read, 1e-4 to 1e3: exp,
-        // whose underflow is slow, is taken at −87 there and the value dropped.)
-        Distribution::Beckmann => {
-            let e = -xy / (a2 * c2);
-            let d = e.max(k(-87.0)).each(f32::exp) / (k(PI) * a2 * c2 * c2);
-            T::select(e.lt(k(-87.0)), k(0.0), d)
-        }
+        Distribution::Beckmann => (-xy / (a2 * c2)).each(exp_above_cut) / (k(PI) * a2 * c2 * c2),
         Distribution::Ggx => {
             let t = xy / a2 + c2;
             k(1.0) / (k(PI) * a2 * t * t)
         }
     };
     T::select(m[2].gt(k(0.0)) & (d * m[2]).gt(k(1e-20)), d, k(0.0))
+}
+
+/// e^x, or 0 below x = −87: there D·cos θ_m is under [`distribution`]'s cut for every α read
+/// (1e-4 to 1e3), and `exp`'s underflow is slow.
+fn exp_above_cut(x: f32) -> f32 {
+    if x < -87.0 { 0.0 } else { x.exp() }
 }
 
 /// Smith's masking G1 of direction `v` by microfacets of normal `m` (Walter et al. 2007, eqs. 27

@@ -72,7 +72,9 @@ impl Rough {
 
 /// The BSDFs of eight lanes (of `C` channels), gathered.
 pub struct RoughLanes<'a, const C: usize> {
-    /// The Beckmann lanes (the others GGX), whether some lane is of each, and the plastics'.
+    /// The lanes gathered; the Beckmann lanes (the others GGX), whether some lane is of each, and
+    /// the plastics'.
+    lanes: M8,
     beckmann: M8,
     kinds: (bool, bool),
     plastic: M8,
@@ -93,11 +95,11 @@ fn dot(a: &[F8; 3], b: &[F8; 3]) -> F8 {
 }
 
 impl<'a, const C: usize> RoughLanes<'a, C> {
-    /// The BSDFs of the lanes `lanes`, each `rough[l]`'s (the others' lanes hold a GGX conductor's
-    /// placeholder values, their results unused).
+    /// The BSDFs of the lanes `lanes`, each `rough[l]`'s (the other lanes hold a GGX conductor of
+    /// roughness NaN, their results unused: `exp` and `ln` of NaN return at once).
     #[inline(always)]
     pub fn gather(rough: [Option<&'a Rough>; LANES], lanes: u32) -> Self {
-        let mut alpha = [1.0; LANES];
+        let mut alpha = [f32::NAN; LANES];
         let (mut specular, mut eta, mut k, mut base) = (
             [[0.0; LANES]; C],
             [[1.5; LANES]; C],
@@ -132,6 +134,7 @@ impl<'a, const C: usize> RoughLanes<'a, C> {
         }
         let [specular, eta, k, base] = channels;
         Self {
+            lanes: M8::from_bits(lanes),
             beckmann: M8::from_bits(beckmann),
             kinds: (beckmann & lanes != 0, lanes & !beckmann != 0),
             plastic: M8::from_bits(plastic),
@@ -286,7 +289,8 @@ impl<'a, const C: usize> RoughLanes<'a, C> {
             F8::select(on_axis, b(1.0), x * inv),
             F8::select(on_axis, b(0.0), y * inv),
         );
-        let (cos_t, sin_t) = self.polar(r2);
+        // (The other lanes' `ln` of NaN returns at once.)
+        let (cos_t, sin_t) = self.polar(F8::select(self.lanes, r2, b(f32::NAN)));
         let m = [sin_t * cos_phi, sin_t * sin_phi, cos_t];
         let twice = b(2.0) * dot(&wi, &m);
         let z = (b(1.0) - r2).max(b(0.0)).sqrt();
