@@ -86,6 +86,11 @@ pub struct RoughLanes<'a, const C: usize> {
     weight: F8,
     /// Each lane's transmittance table (a plastic's).
     tables: [&'a [f32]; LANES],
+    /// The local incident direction of each lane, a plastic's transmittance T(cos θ_i) into its
+    /// coating there and its probability of sampling the coating.
+    wi: [F8; 3],
+    t_i: F8,
+    prob_specular: F8,
 }
 
 /// A · b over the three axes, lane by lane (as `Vec3A::dot` adds: x, then y, then z).
@@ -95,10 +100,11 @@ fn dot(a: &[F8; 3], b: &[F8; 3]) -> F8 {
 }
 
 impl<'a, const C: usize> RoughLanes<'a, C> {
-    /// The BSDFs of the lanes `lanes`, each `rough[l]`'s (the other lanes hold a GGX conductor of
-    /// roughness NaN, their results unused: `exp` and `ln` of NaN return at once).
+    /// The BSDFs of the lanes `lanes`, each `rough[l]`'s, met from the local direction `wi` (the
+    /// other lanes hold a GGX conductor of roughness NaN, their results unused: `exp` and `ln` of
+    /// NaN return at once).
     #[inline(always)]
-    pub fn gather(rough: [Option<&'a Rough>; LANES], lanes: u32) -> Self {
+    pub fn gather(rough: [Option<&'a Rough>; LANES], lanes: u32, wi: [F8; 3]) -> Self {
         let mut alpha = [f32::NAN; LANES];
         let (mut specular, mut eta, mut k, mut base) = (
             [[0.0; LANES]; C],
@@ -133,7 +139,7 @@ impl<'a, const C: usize> RoughLanes<'a, C> {
             }
         }
         let [specular, eta, k, base] = channels;
-        Self {
+        let mut bsdfs = Self {
             lanes: M8::from_bits(lanes),
             beckmann: M8::from_bits(beckmann),
             kinds: (beckmann & lanes != 0, lanes & !beckmann != 0),
@@ -145,7 +151,13 @@ impl<'a, const C: usize> RoughLanes<'a, C> {
             base,
             weight: F8::load(&weight),
             tables,
-        }
+            wi,
+            t_i: zero,
+            prob_specular: zero,
+        };
+        bsdfs.t_i = bsdfs.transmittance(wi[2]);
+        bsdfs.prob_specular = bsdfs.prob_specular_at(bsdfs.t_i);
+        bsdfs
     }
 
     /// D(h) and G(wi, wo, h) of each lane's distribution: one form where the lanes share one,
@@ -193,6 +205,12 @@ impl<'a, const C: usize> RoughLanes<'a, C> {
         }
     }
 
+    /// The local incident direction of each lane.
+    #[inline(always)]
+    pub fn incident(&self) -> [F8; 3] {
+        self.wi
+    }
+
     /// A plastic's coating transmittance T(cos θ) in each lane (its own table; 0 for others).
     #[inline(always)]
     fn transmittance(&self, cos: F8) -> F8 {
@@ -209,19 +227,19 @@ impl<'a, const C: usize> RoughLanes<'a, C> {
     /// A plastic's probability of sampling its coating, of transmittance `t_i` into it
     /// ([`super::RoughPlastic`]'s, from its specular weight).
     #[inline(always)]
-    fn prob_specular(&self, t_i: F8) -> F8 {
+    fn prob_specular_at(&self, t_i: F8) -> F8 {
         let one = F8::splat(1.0);
         let (ps, pd) = ((one - t_i) * self.weight, t_i * (one - self.weight));
         let sum = ps + pd;
         F8::select(sum.gt(F8::splat(0.0)), ps / sum, F8::splat(0.0))
     }
 
-    /// f·cos θ_o and the density of `wo` for the local directions `wi` and `wo` of each lane
-    /// ([`Bsdf::eval_pdf`]), and the lanes where the value is defined (both directions above
-    /// the surface; for a conductor, D(h) > 0).
+    /// f·cos θ_o and the density of the local direction `wo` of each lane ([`Bsdf::eval_pdf`]),
+    /// and the lanes where the value is defined (both directions above the surface; for a
+    /// conductor, D(h) > 0).
     #[inline(always)]
-    pub fn eval_pdf(&self, wi: [F8; 3], wo: [F8; 3]) -> ([F8; C], F8, M8) {
-        let b = F8::splat;
+    pub fn eval_pdf(&self, wo: [F8; 3]) -> ([F8; C], F8, M8) {
+        let (b, wi) = (F8::splat, self.wi);
         let valid = wi[2].gt(b(0.0)) & wo[2].gt(b(0.0));
         // The half vector, as `Vec3A::normalize` makes it (divided by its length).
         let sum = [wi[0] + wo[0], wi[1] + wo[1], wi[2] + wo[2]];
@@ -247,13 +265,12 @@ impl<'a, const C: usize> RoughLanes<'a, C> {
             let eta = self.eta[0];
             let coat = fresnel::dielectric(cos_ih, eta).0;
             let spec = coat * d * g / (b(4.0) * wi[2]);
-            let t_i = self.transmittance(wi[2]);
-            let scale = b(FRAC_1_PI) / (eta * eta) * wo[2] * t_i * self.transmittance(wo[2]);
+            let scale = b(FRAC_1_PI) / (eta * eta) * wo[2] * self.t_i * self.transmittance(wo[2]);
             for (c, f) in f.iter_mut().enumerate() {
                 let value = self.specular[c] * spec + self.base[c] * scale;
                 *f = F8::select(self.plastic, value, *f);
             }
-            let ps = self.prob_specular(t_i);
+            let ps = self.prob_specular;
             let mixed = ps * reflection_pdf + (b(1.0) - ps) * wo[2] * b(FRAC_1_PI);
             pdf = F8::select(self.plastic, mixed, pdf);
         }
@@ -265,18 +282,14 @@ impl<'a, const C: usize> RoughLanes<'a, C> {
         (f, F8::select(valid, pdf, b(0.0)), some)
     }
 
-    /// A local direction for each lane's local `wi` (above the surface) from its numbers `u` and
+    /// A local direction for each lane (met from above the surface) from its numbers `u` and
     /// `v`: the mirror direction about a microfacet normal drawn ∝ D·cos θ_m, or for a plastic
     /// with the probability of its base a cosine-weighted one.
     #[inline(always)]
-    pub fn sample(&self, wi: [F8; 3], u: F8, v: F8) -> [F8; 3] {
-        let b = F8::splat;
+    pub fn sample(&self, u: F8, v: F8) -> [F8; 3] {
+        let (b, wi) = (F8::splat, self.wi);
         // A plastic's lobe, by the first number, which is then rescaled to [0, 1).
-        let ps = F8::select(
-            self.plastic,
-            self.prob_specular(self.transmittance(wi[2])),
-            b(1.0),
-        );
+        let ps = F8::select(self.plastic, self.prob_specular, b(1.0));
         let coat = u.lt(ps);
         let u = F8::select(coat, u / ps, (u - ps) / (b(1.0) - ps)).min(b(ONE_MINUS_EPSILON));
         let (x, y) = square_to_uniform_disk_concentric_lanes(u, v);

@@ -1039,6 +1039,16 @@ impl<'a> PathPacket<'a> {
             w = w.map(|w| w / r);
             // The tangent frame of each lane's normal, as `Frame::new` makes it.
             let frame = frame_axes(n);
+            // The rough BSDFs of the lanes on them, met from −d, gathered once for the bounce's
+            // light sample and BSDF sample.
+            let (mut rough, mut rough_bsdfs) = (0, None);
+            if GLASS && general & p.alive != 0 {
+                rough = self.rough_lanes(general & p.alive, &shape);
+                if rough != 0 {
+                    let wi = local(&frame, &n, [-d[0], -d[1], -d[2]]);
+                    rough_bsdfs = Some(RoughLanes::<C>::gather(self.rough_of(&shape), rough, wi));
+                }
+            }
             // The light's cosines (one-sided: its front faces x; the density's is the geometric
             // normal's) and the BSDF's.
             let cos_l = b(0.0) - dot(&light.n, &w);
@@ -1070,13 +1080,10 @@ impl<'a> PathPacket<'a> {
                     Some(_) => lanes & light.plane.ne(F8::load(&hit.plane)).bits(),
                     None => lanes,
                 };
-                let rough = self.rough_lanes(lanes, &shape);
+                let rough = lanes & rough;
                 let mut lit_general = 0;
-                if rough != 0 {
-                    let bsdfs = RoughLanes::<C>::gather(self.rough_of(&shape), rough);
-                    let wi = local(&frame, &n, [-d[0], -d[1], -d[2]]);
-                    let wo = local(&frame, &n, w);
-                    let (f, pdf, some) = bsdfs.eval_pdf(wi, wo);
+                if let Some(bsdfs) = rough_bsdfs.as_ref().filter(|_| rough != 0) {
+                    let (f, pdf, some) = bsdfs.eval_pdf(local(&frame, &n, w));
                     let weight = if spot.is_some() {
                         cos_l / r2
                     } else {
@@ -1152,14 +1159,13 @@ impl<'a> PathPacket<'a> {
                 p.delta = glass | mirror;
             }
             if GLASS && general & p.alive != 0 {
-                let rough = self.rough_lanes(general & p.alive, &shape);
-                if rough != 0 {
+                let rough = general & p.alive & rough;
+                if let Some(bsdfs) = rough_bsdfs.as_ref().filter(|_| rough != 0) {
                     // Each lane's direction from its own two numbers, then its value and density.
-                    let bsdfs = RoughLanes::<C>::gather(self.rough_of(&shape), rough);
-                    let wi = local(&frame, &n, [-d[0], -d[1], -d[2]]);
-                    let wo = bsdfs.sample(wi, F8::load(&v1), F8::load(&v2));
-                    let (f, pdf, some) = bsdfs.eval_pdf(wi, wo);
-                    let m = M8::from_bits(rough) & some & wi[2].gt(b(0.0)) & pdf.gt(b(0.0));
+                    let wo = bsdfs.sample(F8::load(&v1), F8::load(&v2));
+                    let (f, pdf, some) = bsdfs.eval_pdf(wo);
+                    let up = bsdfs.incident()[2].gt(b(0.0));
+                    let m = M8::from_bits(rough) & some & up & pdf.gt(b(0.0));
                     p.alive &= !rough | m.bits();
                     for a in 0..3 {
                         let dir = frame[0][a] * wo[0] + frame[1][a] * wo[1] + n[a] * wo[2];
