@@ -115,6 +115,28 @@ def cbox_with(out: Path, shape: str = "", bsdfs: dict | None = None) -> str:
     return str(out)
 
 
+def cbox_all_rough(out: Path) -> str:
+    """mitransient's cbox_diffuse.xml with every surface but the light rough: the boxes and the
+    coloured walls rough plastic (Beckmann, α 0.2), the floor a rough conductor (α 0.3), the back
+    wall and the ceiling GGX rough plastic (α 0.3)."""
+    import re
+
+    text = Path(cbox_with(out)).read_text()
+
+    def rough(m):
+        body = m.group(2).replace('name="reflectance"', 'name="diffuse_reflectance"')
+        return f'<bsdf type="roughplastic"{m.group(1) or ""}><float name="alpha" value="0.2"/>{body}</bsdf>'
+
+    text = re.sub(r'<bsdf type="diffuse"( id="gray")?>(.*?)</bsdf>', rough, text, flags=re.S)
+    ggx = '<bsdf type="roughplastic"><string name="distribution" value="ggx"/><float name="alpha" value="0.3"/></bsdf>'
+    for shape, bsdf in (("floor", '<bsdf type="roughconductor"><float name="alpha" value="0.3"/></bsdf>'),
+                        ("ceiling", ggx), ("back", ggx)):
+        at = text.index('<ref id="white"/>', text.index(f'id="{shape}"'))
+        text = text[:at] + bsdf + text[at + len('<ref id="white"/>'):]
+    out.write_text(text)
+    return str(out)
+
+
 def scene_copy(path: Path, out: Path, hgs: bool = False, z_bsdf: str | None = None, extra: str = "") -> str:
     """A copy of a mitransient scene file, with hidden-geometry sampling off (its plugin default)
     unless `hgs`, the Z's BSDF (its mesh hidden_geometry_Z.ply) replaced by `z_bsdf` (XML) if
@@ -305,6 +327,9 @@ def workloads(quick: bool):
             "smallbox": '<bsdf type="roughconductor"><float name="alpha" value="0.2"/></bsdf>',
             "largebox": '<bsdf type="roughplastic"><float name="alpha" value="0.1"/></bsdf>'}),
             max(1, 256 // div), {"res": 64}), "mono"),
+        # The same box with every surface but the light rough: all its lanes are rough ones.
+        "cbox_all_rough": (lambda: (cbox_all_rough(scenes.cache_dir() / "bench_cbox_all_rough.xml"),
+                                    max(1, 256 // div), {"res": 64}), "mono"),
         "z_roughplastic_confocal_bsdf": (lambda: bsdf_sampling(rough_z(z(4096, width=64, height=64,
                                                                          capture_type="confocal"))), "mono"),
         "tal_confocal_file": (lambda: (str(data / "tal021" / "confocal.xml"), max(1, (1 << 19) // div)), "mono"),
