@@ -52,21 +52,6 @@ fn guided_groups(n: usize, len: usize, threads: usize) -> Vec<Range<usize>> {
     groups
 }
 
-/// Blocks of light samples a shared render traces per pass ([`Plan::pass_blocks`]), of a film of
-/// `film_bytes` whose subpaths carry up to `link_bytes` of laser links each: eight, or as many as
-/// keep a pass's links within [`PASS_LINK_BYTES`] or a quarter of the film (at least one). Fewer
-/// passes sweep the film less often (an exhaustive Z of 8×8 × 8×8 points: 8 % faster at three
-/// blocks than at one), and while one thread traces a pass's only block the other waits.
-fn pass_blocks(film_bytes: u64, link_bytes: u64) -> u64 {
-    match link_bytes {
-        0 => 8,
-        b => ((film_bytes / 4).max(PASS_LINK_BYTES) / (BLOCK * b)).clamp(1, 8),
-    }
-}
-
-/// The laser links a pass of a shared render may hold whatever its film's size ([`pass_blocks`]).
-const PASS_LINK_BYTES: u64 = 4 << 20;
-
 /// Ask for up to [`PREFETCH_BYTES`] of a pixel's transient `buf` in cache (out of line: the render
 /// loop it is called from keeps its own code as it was).
 #[inline(never)]
@@ -224,7 +209,7 @@ pub struct Plan {
     pub shared: bool,
     /// Blocks of light samples a shared render traces (in parallel) before connecting them to
     /// the pixels: several, so that tracing them uses every thread and the film is swept less
-    /// often; fewer where subpaths carry a link per laser point ([`pass_blocks`]).
+    /// often; one for a film with laser slots, whose subpaths carry a link per laser point.
     pub pass_blocks: u64,
 }
 
@@ -309,10 +294,7 @@ impl Plan {
             chunks_per_pixel(pixels as u64, spp, (pixel_len * 4) as u64)
         };
         Ok(Self {
-            pass_blocks: pass_blocks(
-                (pixels * pixel_len * 4) as u64,
-                crate::integrator::link_bytes(scene) as u64,
-            ),
+            pass_blocks: if film.laser_slots() > 1 { 1 } else { 8 },
             transient_shape,
             steady_shape: vec![film.height, film.width, c],
             film,

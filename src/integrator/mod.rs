@@ -21,7 +21,7 @@ pub mod visibility_guide;
 
 pub use nlos::NlosTracer;
 pub use path::PathTracer;
-pub use sample_reuse::{link_bytes, shares_samples};
+pub use sample_reuse::shares_samples;
 
 use crate::geometry::Interaction;
 use crate::math::Spectrum;

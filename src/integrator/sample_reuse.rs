@@ -93,15 +93,6 @@ fn delta_surfaces(scene: &Scene) -> (bool, bool, bool) {
 /// traces one path per scan point, which holds none.
 pub const MAX_LINKED_SPOTS: usize = 4096;
 
-/// The most bytes the laser links of one light subpath take ([`NlosTracer::link_light`]: one
-/// per laser point of an exhaustive capture; none for other captures).
-pub fn link_bytes(scene: &Scene) -> usize {
-    let Setup::Nlos(n) = &scene.setup else {
-        return 0;
-    };
-    laser_points(scene, &n.settings) * size_of::<(usize, SpotLink)>()
-}
-
 /// The laser points an exhaustive capture links to each light subpath (0 for other captures):
 /// one per scan point with equal illumination scanning, else the film's laser grid.
 fn laser_points(scene: &Scene, s: &crate::settings::NlosSettings) -> usize {
