@@ -11,7 +11,7 @@
 //! with the first number and rescales it.
 
 use super::microfacet::{self, Distribution};
-use super::roughplastic::transmittance_at;
+use super::roughplastic::{coating_probability, transmittance_at};
 use super::{Bsdf, fresnel};
 use crate::math::Spectrum;
 use crate::sampling::{ONE_MINUS_EPSILON, square_to_uniform_disk_concentric_lanes};
@@ -156,7 +156,7 @@ impl<'a, const C: usize> RoughLanes<'a, C> {
             prob_specular: zero,
         };
         bsdfs.t_i = bsdfs.transmittance(wi[2]);
-        bsdfs.prob_specular = bsdfs.prob_specular_at(bsdfs.t_i);
+        bsdfs.prob_specular = coating_probability(bsdfs.t_i, bsdfs.weight);
         bsdfs
     }
 
@@ -222,16 +222,6 @@ impl<'a, const C: usize> RoughLanes<'a, C> {
             }
         }
         F8::load(&t)
-    }
-
-    /// A plastic's probability of sampling its coating, of transmittance `t_i` into it
-    /// ([`super::RoughPlastic`]'s, from its specular weight).
-    #[inline(always)]
-    fn prob_specular_at(&self, t_i: F8) -> F8 {
-        let one = F8::splat(1.0);
-        let (ps, pd) = ((one - t_i) * self.weight, t_i * (one - self.weight));
-        let sum = ps + pd;
-        F8::select(sum.gt(F8::splat(0.0)), ps / sum, F8::splat(0.0))
     }
 
     /// f·cos θ_o and the density of the local direction `wo` of each lane ([`Bsdf::eval_pdf`]),

@@ -22,6 +22,7 @@ use crate::error::{NlosError, Result};
 use crate::math::Spectrum;
 use crate::props::{Colour, Props};
 use crate::sampling::{Sampler, square_to_cosine_hemisphere};
+use crate::simd::Real;
 use glam::{Vec2, Vec3A};
 use std::f32::consts::FRAC_1_PI;
 
@@ -165,6 +166,15 @@ impl<S> RoughPlastic<S> {
     }
 }
 
+/// The probability of sampling a coating of transmittance `t_i` into it and lobe weight `w`
+/// ([`RoughPlastic::specular_weight`]): (1 − T_i)·w against T_i·(1 − w); for an `f32` or lanes.
+#[inline(always)]
+pub(super) fn coating_probability<T: Real>(t_i: T, w: T) -> T {
+    let k = T::from;
+    let (ps, pd) = ((k(1.0) - t_i) * w, t_i * (k(1.0) - w));
+    T::select((ps + pd).gt(k(0.0)), ps / (ps + pd), k(0.0))
+}
+
 /// T(cos θ) from a coating's transmittance `table` (at cos θ = k / (RES − 1)), linearly
 /// interpolated.
 #[inline]
@@ -186,9 +196,7 @@ impl RoughPlastic<Spectrum> {
 
     /// The probability of sampling the coating, of transmittance `t_i` into it.
     fn prob_specular(&self, t_i: f32) -> f32 {
-        let w = self.specular_weight();
-        let (ps, pd) = ((1.0 - t_i) * w, t_i * (1.0 - w));
-        if ps + pd > 0.0 { ps / (ps + pd) } else { 0.0 }
+        coating_probability(t_i, self.specular_weight())
     }
 
     /// The base's albedo over its internal reflections: ρ / (1 − R_int), or ρ / (1 − ρ R_int)

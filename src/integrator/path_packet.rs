@@ -1043,10 +1043,11 @@ impl<'a> PathPacket<'a> {
             // light sample and BSDF sample.
             let (mut rough, mut rough_bsdfs) = (0, None);
             if GLASS && general & p.alive != 0 {
-                rough = self.rough_lanes(general & p.alive, &shape);
+                let of;
+                (rough, of) = self.rough_lanes(general & p.alive, &shape);
                 if rough != 0 {
                     let wi = local(&frame, &n, [-d[0], -d[1], -d[2]]);
-                    rough_bsdfs = Some(RoughLanes::<C>::gather(self.rough_of(&shape), rough, wi));
+                    rough_bsdfs = Some(RoughLanes::<C>::gather(of, rough, wi));
                 }
             }
             // The light's cosines (one-sided: its front faces x; the density's is the geometric
@@ -1410,22 +1411,18 @@ impl PathPacket<'_> {
         }
     }
 
-    /// The lanes of `lanes` on rough conductors and rough plastics ([`Self::rough`]), as bits.
+    /// The lanes of `lanes` on rough conductors and rough plastics ([`Self::rough`]), as bits, and
+    /// each one's rough BSDF (its shape's, `shape`).
     #[inline(always)]
-    fn rough_lanes(&self, lanes: u32, shape: &U) -> u32 {
-        let mut bits = 0;
+    fn rough_lanes(&self, lanes: u32, shape: &U) -> (u32, [Option<&Rough>; L]) {
+        let (mut bits, mut rough) = (0, [None; L]);
         for l in 0..L {
-            if lanes >> l & 1 != 0 && self.rough[shape[l] as usize].is_some() {
-                bits |= 1 << l;
+            if lanes >> l & 1 != 0 {
+                rough[l] = self.rough[shape[l] as usize].as_ref();
+                bits |= (rough[l].is_some() as u32) << l;
             }
         }
-        bits
-    }
-
-    /// Each lane's rough BSDF, where its shape (`shape`; `u32::MAX` for none) has one.
-    #[inline(always)]
-    fn rough_of(&self, shape: &U) -> [Option<&Rough>; L] {
-        std::array::from_fn(|l| self.rough.get(shape[l] as usize).and_then(Option::as_ref))
+        (bits, rough)
     }
 
     /// Next-event estimates of the lanes `lanes` on general surfaces (`shape`; their normals,
