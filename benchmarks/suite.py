@@ -6,8 +6,10 @@ count, alternately (at least 9 of each, and for at least 4 s: short renders take
 each, their total time (which averages over the machine's speed changes instead of catching its
 fastest moments) and the median of the paired ratios
 (each 1-thread render over the 2-thread render right after it, which met about the same machine
-state; one fast or slow moment moves it least), with the cores the fastest 2-thread render
-kept busy (process CPU time over wall time): the scaling is what a user sees, the busy cores
+state; one fast or slow moment moves it least); beside them the machine's own ceiling for the
+workload, from two 1-thread renders run at once in each round (no sharing, nothing to wait for:
+the most a split of one render can reach in that machine state); with the cores the fastest
+2-thread render kept busy (process CPU time over wall time): the scaling is what a user sees, the busy cores
 whether the render leaves a core idle (on a machine whose cores change speed independently the two
 differ).
 
@@ -38,6 +40,7 @@ import argparse
 import os
 import platform
 import statistics
+import threading
 import time
 from pathlib import Path
 
@@ -441,11 +444,13 @@ def main() -> None:
 
         print(f"\n{cpu_name()}, {os.cpu_count()} cores, {args.threads} threads, "
               f"nlos_rs {nlos_rs.__version__}, mitransient 1.3.1 (llvm_ad), best of {args.repeats}\n")
-        print("| workload | paths | nlos_rs (M paths/s) | mitransient (M paths/s) | ratio | 1→2 threads, best | total | paired median | cores busy |")
-        print("|---|---:|---:|---:|---:|---:|---:|---:|---:|")
-        for name, paths, a, b, r, sc, total, paired, busy in rows:
+        print("| workload | paths | nlos_rs (M paths/s) | mitransient (M paths/s) | ratio | 1→2 threads, best | total | paired median "
+              "| 2 renders at once, best | paired median | cores busy |")
+        print("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
+        for name, paths, a, b, r, sc, total, paired, apart_best, apart_paired, busy in rows:
             print(f"| {name} | {float(paths) / 1e6:.1f} M | {float(a):.2f} | {float(b):.2f} | **{float(r):.2f}×** | {float(sc):.2f}× "
-                  f"| {float(total):.2f}× | {float(paired):.2f}× | {float(busy):.2f} |")
+                  f"| {float(total):.2f}× | {float(paired):.2f}× | {float(apart_best):.2f}× | {float(apart_paired):.2f}× "
+                  f"| {float(busy):.2f} |")
         return
 
     import nlos_rs
@@ -491,16 +496,35 @@ def main() -> None:
         # spinning after a render and take cores from ours).
         # At least 9 pairs, and pairs for at least 4 s: on this VM both cores can run slower for a
         # second or so at a time, which 9 pairs of the T's 35 ms renders fall inside whole.
+        def apart() -> float:
+            """Wall time of `args.threads` 1-thread renders at once, each on a Python thread of its
+            own (a render releases the GIL): nothing shared, nothing to wait for."""
+            workers = [threading.Thread(target=ours, args=(1,)) for _ in range(args.threads)]
+            t0 = time.perf_counter()
+            for w in workers:
+                w.start()
+            for w in workers:
+                w.join()
+            return time.perf_counter() - t0
+
+        # The machine's own ceiling beside each pair: N independent 1-thread renders at once do
+        # N renders' work with no sharing and no waiting, so N·t(1 render) / t(N at once) is the
+        # most any split of one render over N threads can reach at that moment (on this VM it
+        # reads anywhere from 1.3x to 2.0x from one minute to the next).
         ours()
-        one, many = [], []
+        apart()
+        one, many, ceiling = [], [], []
         started = time.perf_counter()
         while len(one) < max(9, args.repeats) or time.perf_counter() - started < 4.0:
             one.append(ours(1))
             many.append(ours_timed(args.threads))
+            ceiling.append(apart())
         wall, cpu = min(many)
         scaling, busy = min(one) / wall, cpu / wall
         scaling_total = sum(one) / sum(w for w, _ in many)
         scaling_paired = statistics.median(a / w for a, (w, _) in zip(one, many))
+        apart_best = args.threads * min(one) / min(ceiling)
+        apart_paired = statistics.median(args.threads * a / c for a, c in zip(one, ceiling))
         theirs_scene = mi.load_file(path, **params) if isinstance(d, tuple) else mi.load_dict(to_mitsuba(d))
         theirs()
         to, tt = [], []
@@ -513,10 +537,11 @@ def main() -> None:
             time.sleep(SETTLE_S)
             tt.append(theirs())
         mo, mt = min(to), min(tt)
-        rows.append((name, paths, paths / mo / 1e6, paths / mt / 1e6, mt / mo, scaling, scaling_total, scaling_paired, busy))
+        rows.append((name, paths, paths / mo / 1e6, paths / mt / 1e6, mt / mo, scaling, scaling_total, scaling_paired,
+                     apart_best, apart_paired, busy))
         print(f"{name:16s} {paths / 1e6:8.1f} M paths  nlos_rs {paths / mo / 1e6:7.2f}  mitransient {paths / mt / 1e6:7.2f} "
               f"M paths/s  ratio {mt / mo:5.2f}x  scaling 1->{args.threads} threads {scaling:4.2f}x (total {scaling_total:4.2f}x, paired median {scaling_paired:4.2f}x)  "
-              f"cores busy {busy:4.2f}",
+              f"independent renders {apart_best:4.2f}x (paired median {apart_paired:4.2f}x)  cores busy {busy:4.2f}",
               flush=True)
 
     for row in rows:
