@@ -295,7 +295,18 @@ impl Scene {
     /// on `y`'s surface, so neither's plane is tested).
     #[inline]
     pub fn visible_to(&self, x: &Interaction, y: &Interaction) -> bool {
-        let (o, d, tmax) = shadow_segment(x, y.p);
+        self.visible_along(x, y, shadow_segment(x, y.p))
+    }
+
+    /// [`Self::visible_to`] along its segment `(o, d, tmax)` ([`shadow_segment`]), made by the
+    /// caller ahead of the test.
+    #[inline]
+    pub fn visible_along(
+        &self,
+        x: &Interaction,
+        y: &Interaction,
+        (o, d, tmax): (Vec3A, Vec3A, f32),
+    ) -> bool {
         let skip = [self.accel.plane_of(x.shape), self.accel.plane_of(y.shape)];
         self.accel.unoccluded(o, d, 0.0, tmax, skip)
     }
