@@ -439,8 +439,8 @@ def main() -> None:
             row = [line for line in out.splitlines() if line.startswith("ROW ")]
             if row:
                 rows.append(row[0][4:].split("\t"))
-                # The row's own line (mitransient may print warnings before it).
-                print(next(line for line in out.splitlines() if line.startswith(name)), flush=True)
+                # The row's own line (mitransient may print warnings before it, even on the same line).
+                print(next(line[line.index(name):] for line in out.splitlines() if name + " " in line), flush=True)
         import nlos_rs
 
         print(f"\n{cpu_name()}, {os.cpu_count()} cores, {args.threads} threads, "

@@ -1135,10 +1135,14 @@ impl<'a, T: Tracer> Sampling<'a, T> {
                 .try_for_each(|(b, block)| {
                     let block_start = start + b as u64 * BLOCK;
                     let mut rng = self.stream(SHARED_STREAM, block_start / BLOCK);
-                    block.clear();
-                    for k in block_start..(block_start + BLOCK).min(pass_end) {
+                    let count = ((block_start + BLOCK).min(pass_end) - block_start) as usize;
+                    if block.len() < count {
+                        block.resize_with(count, || None);
+                    }
+                    block.truncate(count);
+                    for (k, light) in (block_start..).zip(block.iter_mut()) {
                         rng.start(k);
-                        block.push(self.tracer.trace_light(&mut rng));
+                        self.tracer.trace_light(&mut rng, light);
                         // A light subpath can be expensive (HGRS candidates): stay responsive.
                         if cancel.load(Ordering::Relaxed) {
                             return Err(NlosError::Interrupted);

@@ -129,10 +129,11 @@ pub trait Tracer: Sync {
     /// shares (`transient_path`).
     type Light: Send + Sync;
 
-    /// Trace one light subpath (only called where [`shares_samples`] holds); `None` if it
-    /// reaches nothing to connect.
-    fn trace_light(&self, _rng: &mut Sampler) -> Option<Self::Light> {
-        None
+    /// Trace one light subpath into `light` (only called where [`shares_samples`] holds), reusing
+    /// the storage of the subpath it held: a block's subpaths are traced into the same places
+    /// pass after pass, so the render allocates none once the first pass has run.
+    fn trace_light(&self, _rng: &mut Sampler, light: &mut Option<Self::Light>) {
+        *light = None;
     }
 
     /// Complete a traced light subpath with what takes no randomness (an exhaustive capture's

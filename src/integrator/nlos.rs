@@ -843,8 +843,10 @@ impl Tracer for NlosTracer<'_> {
         }
     }
 
-    fn trace_light(&self, rng: &mut Sampler) -> Option<Self::Light> {
-        NlosTracer::trace_light(self, rng)
+    fn trace_light(&self, rng: &mut Sampler, light: &mut Option<Self::Light>) {
+        let path = light.get_or_insert_with(Default::default);
+        // (A subpath that reaches nothing keeps no vertices, which connect to nothing.)
+        let _ = NlosTracer::trace_light(self, rng, path);
     }
 
     fn link_light(&self, light: &mut Self::Light) {

@@ -136,6 +136,7 @@ impl LightVertex {
 /// One light subpath: its vertices that connect to scan points (those whose path depth passes
 /// `max_depth` and `filter_bounces`), and for confocal and exhaustive captures its first vertex
 /// with what the spots need of it.
+#[derive(Default)]
 pub struct LightPath {
     vertices: Vec<LightVertex>,
     spot_free: Option<SpotFree>,
@@ -176,7 +177,10 @@ impl NlosTracer<'_> {
     /// capture, from a first hidden vertex for confocal and exhaustive ones. With
     /// `transient_nlos_path_rs` every vertex is an HGRS step (`super::hgrs`): its N candidates and
     /// their shadow rays are paid once for all scan points.
-    pub(super) fn trace_light(&self, rng: &mut Sampler) -> Option<LightPath> {
+    /// The subpath is written into `path`, whose storage a block of subpaths keeps from one pass
+    /// to the next; `None` (and no vertices) if it reaches nothing to connect.
+    pub(super) fn trace_light(&self, rng: &mut Sampler, path: &mut LightPath) -> Option<()> {
+        path.vertices.clear();
         let st = self.settings;
         let hg = self.hidden.as_ref()?;
         let area = hg.total_area();
@@ -226,13 +230,17 @@ impl NlosTracer<'_> {
             (first, None, 0.0)
         };
         let source = first.weight;
-        let mut path = LightPath {
-            vertices: Vec::new(),
-            spot_free: (!single).then(|| SpotFree {
-                first: first.next,
-                out: None,
-                links: Vec::new(),
-            }),
+        path.spot_free = match (single, path.spot_free.take()) {
+            (true, _) => None,
+            (false, free) => {
+                let mut links = free.map(|f| f.links).unwrap_or_default();
+                links.clear();
+                Some(SpotFree {
+                    first: first.next,
+                    out: None,
+                    links,
+                })
+            }
         };
         // Russian roulette reads the throughput after the source, `beta` (without the first
         // vertex's BSDF where that depends on the spot). `eta`: the index of refraction where the
@@ -313,7 +321,7 @@ impl NlosTracer<'_> {
             eta *= next.eta;
             (it, opl, count) = (next.next, opl + (next.dist * eta) as f64, count + 1);
         }
-        Some(path)
+        Some(())
     }
 
     /// A subpath's first hidden vertex and its inverse area density: from the visibility guide
