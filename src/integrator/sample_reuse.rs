@@ -111,10 +111,10 @@ fn laser_points(scene: &Scene, s: &crate::settings::NlosSettings) -> usize {
 /// [`Self::to_light`]), the throughput up to it without its own BSDF (a single capture's spot
 /// radiance included; nor the cosine at it towards the laser side, which that BSDF's value holds),
 /// the optical path from it back to the laser (to the first vertex where no single spot lights
-/// it), how many hidden vertices the subpath has up to it, whether it may face some scan
-/// point, and whether every scan point sees it ([`super::clear_view`]). (112 bytes, the two counts where an `Option`'s tag would be: the Z's single capture
-/// connects about one vertex per pixel and light sample, and at 144 bytes it ran about 7 % slower
-/// in one A/B run.)
+/// it), how many hidden vertices the subpath has up to it, whether it may face some scan point,
+/// and whether every scan point sees it ([`super::clear_view`]). (112 bytes, the two counts and
+/// flags where an `Option`'s tag would be: the Z's single capture connects about one vertex per
+/// pixel and light sample, and at 144 bytes it ran about 7 % slower in one A/B run.)
 struct LightVertex {
     it: Interaction,
     towards_light: Vec3A,
@@ -177,6 +177,7 @@ impl NlosTracer<'_> {
     /// capture, from a first hidden vertex for confocal and exhaustive ones. With
     /// `transient_nlos_path_rs` every vertex is an HGRS step (`super::hgrs`): its N candidates and
     /// their shadow rays are paid once for all scan points.
+    ///
     /// The subpath is written into `path`, whose storage a block of subpaths keeps from one pass
     /// to the next; `None` (and no vertices) if it reaches nothing to connect.
     pub(super) fn trace_light(&self, rng: &mut Sampler, path: &mut LightPath) -> Option<()> {
