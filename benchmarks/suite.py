@@ -9,8 +9,8 @@ fastest moments) and the median of the paired ratios
 state; one fast or slow moment moves it least); beside them the machine's own ceiling for the
 workload, from two 1-thread renders run at once in each round (no sharing, nothing to wait for:
 the most a split of one render can reach in that machine state); with the cores the fastest
-2-thread render kept busy (process CPU time over wall time): the scaling is what a user sees, the busy cores
-whether the render leaves a core idle (on a machine whose cores change speed independently the two
+2-thread render kept busy (process CPU time over wall time): the scaling is what a user sees, the
+busy cores whether the render leaves a core idle (on a machine whose cores change speed independently the two
 differ).
 
     python benchmarks/suite.py [--threads 2] [--repeats 5] [--only NAME ...] [--quick]

@@ -414,7 +414,7 @@ unsafe fn rough_lanes(
     u: [[f32; LANES]; 2],
 ) -> (Dirs, [f32; LANES], u32, Dirs) {
     let (wi, wo) = (wi.map(|a| F8::load(&a)), wo.map(|a| F8::load(&a)));
-    let lanes = RoughLanes::<3>::gather(rough, (1 << LANES) - 1, wi);
+    let lanes = RoughLanes::<3>::gather(rough, wi);
     let (f, pdf, some) = lanes.eval_pdf(wo);
     let s = lanes.sample(F8::load(&u[0]), F8::load(&u[1]));
     (f.map(F8::store), pdf.store(), some.bits(), s.map(F8::store))

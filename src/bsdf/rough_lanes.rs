@@ -100,11 +100,12 @@ fn dot(a: &[F8; 3], b: &[F8; 3]) -> F8 {
 }
 
 impl<'a, const C: usize> RoughLanes<'a, C> {
-    /// The BSDFs of the lanes `lanes`, each `rough[l]`'s, met from the local direction `wi` (the
-    /// other lanes hold a GGX conductor of roughness NaN, their results unused: `exp` and `ln` of
-    /// NaN return at once).
+    /// The BSDFs of the lanes where `rough` has one, each `rough[l]`, met from the local direction
+    /// `wi` (the other lanes hold a GGX conductor of roughness NaN, their results unused: `exp`
+    /// and `ln` of NaN return at once).
     #[inline(always)]
-    pub fn gather(rough: [Option<&'a Rough>; LANES], lanes: u32, wi: [F8; 3]) -> Self {
+    pub fn gather(rough: [Option<&'a Rough>; LANES], wi: [F8; 3]) -> Self {
+        let mut lanes = 0u32;
         let mut alpha = [f32::NAN; LANES];
         let (mut specular, mut eta, mut k, mut base) = (
             [[0.0; LANES]; C],
@@ -116,9 +117,10 @@ impl<'a, const C: usize> RoughLanes<'a, C> {
         let (mut beckmann, mut plastic) = (0u32, 0u32);
         let mut tables: [&[f32]; LANES] = [&[]; LANES];
         for (l, r) in rough.iter().enumerate() {
-            let Some(r) = r.filter(|_| lanes >> l & 1 != 0) else {
+            let Some(r) = r else {
                 continue;
             };
+            lanes |= 1 << l;
             alpha[l] = r.alpha;
             beckmann |= ((r.kind == Distribution::Beckmann) as u32) << l;
             plastic |= (r.plastic as u32) << l;

@@ -1047,7 +1047,7 @@ impl<'a> PathPacket<'a> {
                 (rough, of) = self.rough_lanes(general & p.alive, &shape);
                 if rough != 0 {
                     let wi = local(&frame, &n, [-d[0], -d[1], -d[2]]);
-                    rough_bsdfs = Some(RoughLanes::<C>::gather(of, rough, wi));
+                    rough_bsdfs = Some(RoughLanes::<C>::gather(of, wi));
                 }
             }
             // The light's cosines (one-sided: its front faces x; the density's is the geometric
